@@ -1,0 +1,274 @@
+"""Physics verification of the simulator against analytic results and invariants."""
+import math
+
+import numpy as np
+import pytest
+
+from tethernet_ros.core.config import SimConfig
+from tethernet_ros.core.design import REFERENCE_DESIGNS
+from tethernet_ros.core.episode import CaptureSimulation, run_episode
+from tethernet_ros.core.noise import NoiseModel
+from tethernet_ros.core.scenario import World, actions_for, build_scenario, scenario_for
+
+from physics_systems import particle_system
+
+E, RHO = 70e9, 1390.0
+R_THREAD, L0 = 0.001, 1.25
+K_THREAD = E * math.pi * R_THREAD**2 / L0          # 1.76e5 N/m
+
+
+def _oscillator(mass, zeta, dt, amplitude=2e-4, prestretch=1e-3):
+    """A mass between two fixed anchors on pre-stretched threads, displaced along x."""
+    k = K_THREAD
+    c = 2 * zeta * math.sqrt(k * mass)
+    x = [[-L0, 0, 0], [amplitude, 0, 0], [L0, 0, 0]]
+    rest = [L0 - prestretch, L0 - prestretch]
+    return particle_system(x, np.zeros((3, 3)), [math.inf, mass, math.inf], [[0, 1], [1, 2]],
+                           k, c, rest=rest, dt=dt)
+
+
+def _zero_crossings(sim, n_steps):
+    xs = np.empty(n_steps)
+    for s in range(n_steps):
+        sim.advance(1)
+        xs[s] = sim.s.x[1, 0]
+    t = (np.arange(n_steps) + 1) * sim.dt
+    idx = np.flatnonzero((xs[:-1] > 0) & (xs[1:] <= 0))
+    # linear interpolation of the downward crossings
+    tc = t[idx] + (t[idx + 1] - t[idx]) * xs[idx] / (xs[idx] - xs[idx + 1])
+    return tc, xs
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.106])
+def test_thread_spring_mass_frequency_matches_analytic(zeta):
+    mass = 1.0
+    omega = math.sqrt(2 * K_THREAD / mass)           # two threads in parallel
+    # two threads of damping 2 zeta sqrt(k m) act like one of ratio zeta*sqrt(2) on 2k
+    zeta_eff = zeta * math.sqrt(2)
+    omega_d = omega * math.sqrt(1 - zeta_eff**2)
+    period = 2 * math.pi / omega_d
+    sim = CaptureSimulation(_oscillator(mass, zeta, dt=period / 2000))
+    tc, _ = _zero_crossings(sim, 2000 * 6)
+    measured = 2 * math.pi / np.mean(np.diff(tc))
+    assert len(tc) >= 5
+    assert measured == pytest.approx(omega_d, rel=0.01)
+
+
+def test_oscillator_energy_loss_without_damping_vanishes_with_step():
+    """Undamped: the only loss is the integrator's (implicit Euler, first order)."""
+    mass = 1.0
+    period = 2 * math.pi / math.sqrt(2 * K_THREAD / mass)
+    losses = []
+    for n_per_period in (500, 1000, 2000):
+        sim = CaptureSimulation(_oscillator(mass, 0.0, dt=period / n_per_period))
+        e0 = sim.kinetic_energy() + sim.elastic_energy()
+        sim.advance(n_per_period * 3)
+        e1 = sim.kinetic_energy() + sim.elastic_energy()
+        losses.append((e0 - e1) / e0)
+    assert all(0 <= l for l in losses)
+    assert losses[-1] < 0.06                      # 3 periods at 2000 steps per period
+    assert losses[0] / losses[1] == pytest.approx(2.0, rel=0.15)   # first order in dt
+    assert losses[1] / losses[2] == pytest.approx(2.0, rel=0.15)
+
+
+def test_threads_never_push():
+    k, c = K_THREAD, 50.0
+    # compressed below rest length: no force at all
+    sim = CaptureSimulation(particle_system([[0, 0, 0], [1.0, 0, 0]], [[0.3, 0, 0], [-0.3, 0, 0]],
+                                            [0.01, 0.01], [[0, 1]], k, c, rest=[1.2], dt=1e-4))
+    sim.advance(100)
+    assert np.allclose(sim.s.v, [[0.3, 0, 0], [-0.3, 0, 0]], rtol=0, atol=1e-12)
+    # stretched but closing so fast that k*C + c*dC/dt < 0: the damper may not push
+    sim = CaptureSimulation(particle_system([[0, 0, 0], [1.0 + 1e-6, 0, 0]],
+                                            [[5.0, 0, 0], [-5.0, 0, 0]], [0.01, 0.01], [[0, 1]],
+                                            k, 1e4, rest=[1.0], dt=1e-4))
+    sim.advance(1)
+    assert sim.s.v[0, 0] == pytest.approx(5.0, abs=1e-12)
+    assert sim.s.v[1, 0] == pytest.approx(-5.0, abs=1e-12)
+
+
+def _far_scenario(name, distance=1e4, config=None):
+    d = REFERENCE_DESIGNS[name]
+    return build_scenario(d, actions_for(d, None), World(distance=distance), config or SimConfig())
+
+
+def test_momentum_conserved_in_free_flight():
+    sim = CaptureSimulation(_far_scenario("time-min"))
+    p0 = sim.linear_momentum()
+    scale = np.abs(sim.s.mass[:, None] * sim.s.v).sum()
+    for _ in range(6):
+        sim.advance(500)
+        assert np.abs(sim.linear_momentum() - p0).max() < 1e-12 * scale
+    # the threads did work: the corner masses were slowed by the net
+    assert np.linalg.norm(sim.s.v[sim.s.corner_bodies[0]]) < 0.99 * np.linalg.norm(REFERENCE_DESIGNS["time-min"].V_e)
+
+
+def test_momentum_conserved_through_contact_with_target():
+    """Net + target momentum stays constant while the net hits the free target (before the
+    winch locks and the paid-out tether joins the dynamics)."""
+    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, SimConfig()))
+    p0 = sim.linear_momentum()
+    scale = np.abs(sim.s.mass[:, None] * sim.s.v).sum()
+    while not sim.closing_active:
+        sim.advance(10)
+        if not sim.closing_active:
+            assert np.abs(sim.linear_momentum() - p0).max() < 1e-10 * scale
+    assert sim.contact_count[0] > 100
+    assert np.linalg.norm(sim.s.tgt_vel) > 0         # the target was pushed
+
+
+def test_energy_never_gained_with_damping():
+    sim = CaptureSimulation(_far_scenario("suboptimal"))
+    e = [sim.kinetic_energy() + sim.elastic_energy()]
+    for _ in range(300):
+        sim.advance(20)
+        e.append(sim.kinetic_energy() + sim.elastic_energy())
+    e = np.array(e)
+    assert np.all(np.diff(e) <= 1e-9 * e[0])
+    assert e[-1] < 0.95 * e[0]                      # deployment does dissipate
+
+
+def test_energy_conserved_while_threads_slack():
+    """Right after launch all threads are slack: kinetic energy is exactly constant."""
+    sim = CaptureSimulation(_far_scenario("baseline", config=SimConfig(damping_ratio=0.0)))
+    e0 = sim.kinetic_energy()
+    sim.advance(20)
+    assert sim.elastic_energy() == 0.0
+    assert sim.kinetic_energy() == pytest.approx(e0, rel=1e-14)
+
+
+def test_energy_undamped_deployment_loss_shrinks_with_step():
+    """Without thread damping the only loss is numerical and it falls with dt."""
+    losses = []
+    for dt in (1e-3, 2.5e-4):
+        sim = CaptureSimulation(_far_scenario("suboptimal", config=SimConfig(damping_ratio=0.0, dt=dt)))
+        e0 = sim.kinetic_energy()
+        sim.advance(int(round(2.0 / dt)))
+        losses.append((e0 - sim.kinetic_energy() - sim.elastic_energy()) / e0)
+    assert losses[0] >= 0 and losses[1] >= 0
+    assert losses[1] < 0.6 * losses[0]
+
+
+def _mirror_maps():
+    idx = np.arange(289).reshape(17, 17)
+    return idx[:, ::-1].ravel(), idx[::-1, :].ravel()
+
+
+def test_symmetric_launch_stays_mirror_symmetric():
+    """Nominal launch at the nominal target attitude: the state is mirror-symmetric about
+    x = 0 and y = 0 to round-off through deployment, first contact and closing onset."""
+    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, SimConfig()))
+    mx, my = _mirror_maps()
+    while sim.time < 4.5:
+        sim.advance(250)
+        x = sim.s.x[:289]
+        assert np.abs(x[mx, 0] + x[:, 0]).max() < 1e-12
+        assert np.abs(x[mx, 1:] - x[:, 1:]).max() < 1e-12
+        assert np.abs(x[my, 1] + x[:, 1]).max() < 1e-12
+        assert np.abs(x[my][:, [0, 2]] - x[:, [0, 2]]).max() < 1e-12
+    assert sim.closing_active and sim.contact_count[0] > 0
+
+
+@pytest.mark.parametrize("name", sorted(REFERENCE_DESIGNS))
+def test_no_body_sinks_into_target(name):
+    res = run_episode(REFERENCE_DESIGNS[name], None, SimConfig(), record_trace=False)
+    assert res.max_penetration < 0.05
+    assert res.closing_time == res.closing_time      # closing triggered
+
+
+def test_no_body_sinks_into_target_under_noise():
+    model = NoiseModel()
+    for seed in range(3):
+        res = run_episode(REFERENCE_DESIGNS["suboptimal"], model.sample(seed), SimConfig(), record_trace=False)
+        assert res.max_penetration < 0.05
+
+
+def test_closing_force_and_lock():
+    """Two free nodes of a drawstring pair: constant F_c pulls them together; below 1 m they
+    lock and never separate again."""
+    from tethernet_ros.core import dynamics as dyn
+
+    m, F = 0.05, 2 * 2.0 * 20.0 / 25
+    sc = particle_system([[0, 0, 0], [3.0, 0, 0]], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
+                         rest=[100.0], dt=1e-3)
+    sc.link_active[:] = 0
+    sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
+    sc.pair_locked = np.zeros(1, dtype=np.uint8)
+    sc.pair_maxdist = np.zeros(1)
+    sc.pair_lock_step = np.full(1, -1, dtype=np.int64)
+    sc.prm[dyn.P_CLOSE_FORCE] = F
+    sc.ev[dyn.E_CLOSING_ACTIVE] = 1
+    sim = CaptureSimulation(sc)
+    sim.advance(100)
+    t = sim.time
+    # x(t) = F/m t^2 / 2 for each node (symplectic Euler: exact to O(dt))
+    assert sim.s.x[0, 0] == pytest.approx(0.5 * F / m * t * t, rel=0.02)
+    assert sim.s.v[0, 0] == pytest.approx(F / m * t, rel=1e-9)
+    while not sc.pair_locked[0]:
+        gap = sim.s.x[1, 0] - sim.s.x[0, 0]
+        sim.advance(1)
+    assert gap >= 1.0 > sim.s.x[1, 0] - sim.s.x[0, 0]
+    # throw them apart: the lock holds (distance never grows) for the rest of the episode
+    sim.s.v[0] = [-20.0, 3.0, 0.0]
+    sim.s.v[1] = [20.0, -1.0, 2.0]
+    dmax = sc.pair_maxdist[0]
+    for _ in range(200):
+        sim.advance(5)
+        d = np.linalg.norm(sim.s.x[1] - sim.s.x[0])
+        assert d <= dmax + 1e-9
+        assert sc.pair_locked[0] == 1
+        dmax = sc.pair_maxdist[0]
+
+
+def test_closing_force_magnitude_from_design():
+    from tethernet_ros.core import dynamics as dyn
+
+    d = REFERENCE_DESIGNS["time-min"]
+    sc = scenario_for(d)
+    assert sc.prm[dyn.P_CLOSE_FORCE] == pytest.approx(2 * d.m_c * d.L_n / 25)
+    assert sc.prm[dyn.P_LOCK_DIST] == 1.0
+    assert len(sc.ring_pairs) == 12
+
+
+def test_closing_triggers_at_displacement():
+    d = REFERENCE_DESIGNS["mass-min"]
+    res = run_episode(d, None, SimConfig(), record_trace=True)
+    tr = res.trace
+    k = int(np.searchsorted(tr.time, res.closing_time))
+    # before the trigger z_rel < d_c; the recorded sample after it is near d_c
+    assert max(tr.z_rel[:k]) < d.d_c
+    assert res.completion_time == pytest.approx(res.closing_time + 20.0)
+
+
+def test_same_inputs_same_result_bit_for_bit():
+    model = NoiseModel()
+    a = run_episode(REFERENCE_DESIGNS["time-min"], model.sample(7), SimConfig())
+    b = run_episode(REFERENCE_DESIGNS["time-min"], model.sample(7), SimConfig())
+    assert a.settled_cqi == b.settled_cqi and a.locked_pairs == b.locked_pairs
+    assert a.trace.cqi == b.trace.cqi
+    assert a.closing_time == b.closing_time
+
+
+def test_divergence_is_a_failed_episode_with_reason():
+    cfg = SimConfig(max_speed=5.0)                  # the corners leave faster than that
+    res = run_episode(REFERENCE_DESIGNS["time-min"], None, cfg, record_trace=False)
+    assert not res.success
+    assert res.failure_reason.startswith("simulation diverged")
+
+
+def test_closing_never_triggered_fails_at_horizon():
+    d = REFERENCE_DESIGNS["baseline"]
+    res = run_episode(d, None, SimConfig(horizon=5.0), record_trace=False)
+    assert not res.success
+    assert "closing never triggered" in res.failure_reason
+    assert res.completion_time == 5.0
+
+
+@pytest.mark.slow
+def test_time_step_convergence_of_baseline():
+    """Halving the step changes the baseline's settled CQI by under 2 % and n_L not at all."""
+    cfg = SimConfig()
+    a = run_episode(REFERENCE_DESIGNS["baseline"], None, cfg, record_trace=False)
+    b = run_episode(REFERENCE_DESIGNS["baseline"], None, cfg.replace(dt=cfg.dt / 2), record_trace=False)
+    assert abs(a.settled_cqi - b.settled_cqi) / b.settled_cqi < 0.02
+    assert a.locked_pairs == b.locked_pairs

@@ -1,0 +1,133 @@
+"""Simulation configuration: every model constant of SPEC sections 1-4 with its default.
+
+Units: SI (m, s, kg, N, Pa).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace, asdict
+
+from .target import TargetConfig
+
+
+class ConfigError(ValueError):
+    """A configuration value is outside its allowed range (message names the field)."""
+
+
+# field -> (lower, upper, what) ; bounds inclusive, checked for finiteness too
+_LIMITS = {
+    "dt": (1e-6, 0.01, "a time step in [1e-6, 0.01] s"),
+    "horizon": (1.0, 3600.0, "a horizon in [1, 3600] s"),
+    "settle_time": (0.0, 600.0, "a settling time in [0, 600] s"),
+    "young_modulus": (1e6, 1e13, "an effective Young's modulus in [1e6, 1e13] Pa"),
+    "damping_ratio": (0.0, 10.0, "a damping ratio in [0, 10]"),
+    "density": (1.0, 1e5, "a density in [1, 1e5] kg/m^3"),
+    "stowed_fraction": (1e-4, 0.5, "a stowed side fraction in [1e-4, 0.5]"),
+    "corner_thread_meshes": (0.01, 100.0, "a corner-thread length in [0.01, 100] mesh sides"),
+    "tether_segments": (1, 1000, "a segment count in [1, 1000]"),
+    "lock_distance": (0.0, 100.0, "a lock distance in [0, 100] m"),
+    "closing_force_factor": (0.0, 1e3, "a factor in [0, 1e3] (F_c = factor m_c L_n)"),
+    "friction": (0.0, 10.0, "a friction coefficient in [0, 10]"),
+    "contact_stiffness": (1.0, 1e12, "a contact stiffness in [1, 1e12] N/m"),
+    "contact_damping_ratio": (0.0, 10.0, "a damping ratio in [0, 10]"),
+    "node_contact_radius": (1e-4, 1.0, "a radius in [1e-4, 1] m"),
+    "corner_mass_radius": (1e-4, 1.0, "a radius in [1e-4, 1] m"),
+    "chaser_mass": (1.0, 1e6, "a mass in [1, 1e6] kg"),
+    "chaser_side": (0.01, 100.0, "a side in [0.01, 100] m"),
+    "metric_rate": (0.1, 1000.0, "a rate in [0.1, 1000] Hz"),
+    "state_rate": (0.0, 1000.0, "a rate in [0, 1000] Hz (0: no node-position trace)"),
+    "max_speed": (1.0, 1e6, "a speed in [1, 1e6] m/s"),
+    "success_cqi": (0.0, 1e6, "a CQI threshold >= 0"),
+    "success_locked_pairs": (0, 12, "a pair count in [0, 12]"),
+}
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Model and integration settings.
+
+    dt: integration step (s); horizon: simulated time by which closing must trigger (s);
+    settle_time: delay after closing activation at which settled CQI and n_L are read (s).
+    Threads: young_modulus E (Pa), damping_ratio zeta, density rho (kg/m^3).
+    Net: grid of 17 x 17 nodes, stowed square of side stowed_fraction * L_n; corner threads
+    of corner_thread_meshes mesh sides; main tether of tether_segments segments.
+    Closing: F_c = closing_force_factor * m_c * L_n (N) per adjacent pair, lock below
+    lock_distance (m); the drawstring runs through grid indices closing_indices on each side.
+    Contact: Coulomb friction coefficient, penalty stiffness (N/m) and damping ratio
+    (relative to each body's mass), sphere radii of net/tether nodes and corner masses (m).
+    Chaser: free-floating cube of chaser_mass (kg) and chaser_side (m); the winch sits at the
+    launch point.
+    Output: metric_rate (Hz) of the CQI / n_L trace, state_rate (Hz) of node positions.
+    max_speed (m/s): any body faster than this marks the episode as diverged.
+    Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
+    """
+
+    dt: float = 1e-3
+    horizon: float = 120.0
+    settle_time: float = 20.0
+    young_modulus: float = 70e9
+    damping_ratio: float = 0.106
+    density: float = 1390.0
+    grid_nodes: int = 17
+    stowed_fraction: float = 0.05
+    corner_thread_meshes: float = 1.0
+    tether_segments: int = 10
+    closing_indices: tuple[int, ...] = (0, 5, 11, 16)
+    lock_distance: float = 1.0
+    closing_force_factor: float = 2.0 / 25.0
+    friction: float = 0.3
+    contact_stiffness: float = 1e6
+    contact_damping_ratio: float = 0.3
+    node_contact_radius: float = 0.02
+    corner_mass_radius: float = 0.05
+    chaser_mass: float = 1000.0
+    chaser_side: float = 1.5
+    metric_rate: float = 10.0
+    state_rate: float = 0.0
+    max_speed: float = 500.0
+    success_cqi: float = 2.0
+    success_locked_pairs: int = 10
+    target: TargetConfig = field(default_factory=TargetConfig)
+
+    def __post_init__(self):
+        for name, (lo, hi, what) in _LIMITS.items():
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                    or not (lo <= v <= hi):
+                raise ConfigError(f"config field '{name}': got {v!r}; must be {what}")
+        for name in ("tether_segments", "success_locked_pairs", "grid_nodes"):
+            if int(getattr(self, name)) != getattr(self, name):
+                raise ConfigError(f"config field '{name}': must be an integer")
+        if self.grid_nodes != 17:
+            raise ConfigError("config field 'grid_nodes': only the 17 x 17 grid of SPEC section 2 is supported")
+        idx = tuple(self.closing_indices)
+        if len(idx) < 2 or idx[0] != 0 or idx[-1] != self.grid_nodes - 1 or list(idx) != sorted(set(idx)):
+            raise ConfigError("config field 'closing_indices': must be increasing grid indices "
+                              f"from 0 to {self.grid_nodes - 1}")
+        object.__setattr__(self, "closing_indices", idx)
+        if isinstance(self.target, dict):
+            object.__setattr__(self, "target", TargetConfig(**self.target))
+        steps_per_metric = 1.0 / (self.metric_rate * self.dt)
+        if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
+            raise ConfigError("config field 'metric_rate': 1/(metric_rate*dt) must be a whole number of steps")
+
+    def replace(self, **changes) -> "SimConfig":
+        return replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["closing_indices"] = list(self.closing_indices)
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "SimConfig":
+        names = {f.name for f in fields(cls)}
+        for k in data:
+            if k not in names:
+                raise ConfigError(f"config field '{k}': unknown; allowed fields are {sorted(names)}")
+        data = dict(data)
+        if "target" in data and isinstance(data["target"], dict):
+            data["target"] = TargetConfig(**data["target"])
+        if "closing_indices" in data:
+            data["closing_indices"] = tuple(data["closing_indices"])
+        return cls(**data)

@@ -1,0 +1,275 @@
+"""One capture episode as one call: ``run_episode(design, sample, config)``.
+
+:class:`CaptureSimulation` is the stepping interface shared by ``run_episode`` and the ROS
+simulation node, so both advance the same kernel through the same steps and give the same
+numbers bit for bit.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, asdict
+
+import numpy as np
+
+from . import dynamics as dyn
+from .config import SimConfig
+from .design import Design
+from .metrics import CQITerms, capture_quality_index, capture_verdict
+from .noise import NoiseSample
+from .scenario import Actions, Scenario, World, actions_for, build_scenario, world_for
+
+
+class CaptureSimulation:
+    """Owns a :class:`Scenario` and advances it with the numba kernel.
+
+    Time is kept as an integer step count; ``time`` = step * dt (s).
+    """
+
+    def __init__(self, scenario: Scenario):
+        self.s = scenario
+        self.cfg = scenario.config
+        self.dt = self.cfg.dt
+        nb = scenario.n_bodies
+        self._xp = np.zeros((nb, 3))
+        self._cn = np.zeros((nb, 3))
+        self._cj = np.zeros(nb)
+        self._cb = np.zeros(nb, dtype=np.int64)
+        self.contact_count = np.zeros(1, dtype=np.int64)
+        self.max_penetration = np.zeros(1)
+        self.net_masses = scenario.mass[scenario.net_nodes].copy()
+        self.settle_steps = int(round(self.cfg.settle_time / self.dt))
+        self.horizon_steps = int(round(self.cfg.horizon / self.dt))
+
+    # -- state ---------------------------------------------------------------------
+    @property
+    def step(self) -> int:
+        return int(self.s.ev[dyn.E_STEP])
+
+    @property
+    def time(self) -> float:
+        return self.step * self.dt
+
+    @property
+    def closing_active(self) -> bool:
+        return bool(self.s.ev[dyn.E_CLOSING_ACTIVE])
+
+    @property
+    def closing_step(self) -> int | None:
+        return int(self.s.ev[dyn.E_CLOSING_STEP]) if self.closing_active else None
+
+    @property
+    def closing_time(self) -> float | None:
+        cs = self.closing_step
+        return None if cs is None else cs * self.dt
+
+    @property
+    def locked_pairs(self) -> int:
+        return int(self.s.pair_locked.sum())
+
+    def end_step(self) -> int:
+        """Step at which the episode ends as things stand now."""
+        cs = self.closing_step
+        return self.horizon_steps if cs is None else cs + self.settle_steps
+
+    def advance(self, n_steps: int) -> None:
+        """Advance ``n_steps`` integration steps (mutates the scenario arrays)."""
+        if n_steps <= 0:
+            return
+        s = self.s
+        dyn.advance(n_steps, s.x, s.v, s.w, s.mass, s.radius, s.contact_mask,
+                    s.links, s.link_groups, s.link_relax, s.link_rest, s.link_compliance, s.link_damping, s.link_active,
+                    s.net_nodes, s.ring_pairs, s.pair_locked, s.pair_maxdist, s.pair_lock_step,
+                    s.tether_nodes, s.tether_links, s.centre_node, s.winch_body,
+                    s.tgt_pos, s.tgt_quat, s.tgt_vel, s.tgt_omega, s.tgt_inertia, s.cyl, s.verts,
+                    s.offsets, s.prm, s.ev, self.contact_count, self.max_penetration,
+                    self._xp, self._cn, self._cj, self._cb)
+
+    def divergence(self) -> str:
+        """'' if the state is sound, else why the simulation diverged."""
+        s = self.s
+        if not (np.all(np.isfinite(s.x)) and np.all(np.isfinite(s.v))
+                and np.all(np.isfinite(s.tgt_pos)) and np.all(np.isfinite(s.tgt_quat))):
+            return f"simulation diverged: non-finite state at t = {self.time:.3f} s"
+        vmax = float(np.sqrt((s.v**2).sum(axis=1)).max())
+        if vmax > self.cfg.max_speed:
+            return (f"simulation diverged: body speed {vmax:.1f} m/s > max_speed "
+                    f"{self.cfg.max_speed:g} m/s at t = {self.time:.3f} s")
+        return ""
+
+    def net_positions(self) -> np.ndarray:
+        return self.s.x[self.s.net_nodes]
+
+    def net_centre_of_mass(self) -> np.ndarray:
+        return (self.net_positions() * self.net_masses[:, None]).sum(axis=0) / self.net_masses.sum()
+
+    def cqi(self) -> CQITerms:
+        t = self.s.target
+        return capture_quality_index(self.net_positions(), self.net_masses, self.s.tgt_pos,
+                                     t.volume, t.area, t.min_surface_distance)
+
+    # -- conserved quantities (for verification) ------------------------------------
+    def dynamic_bodies(self) -> np.ndarray:
+        return np.flatnonzero(self.s.w > 0)
+
+    def linear_momentum(self) -> np.ndarray:
+        """Total linear momentum (kg m/s) of dynamic bodies and target."""
+        s = self.s
+        b = self.dynamic_bodies()
+        return (s.mass[b, None] * s.v[b]).sum(axis=0) + self.cfg.target.mass * s.tgt_vel
+
+    def kinetic_energy(self) -> float:
+        s = self.s
+        b = self.dynamic_bodies()
+        ke = 0.5 * float((s.mass[b] * (s.v[b] ** 2).sum(axis=1)).sum())
+        ke += 0.5 * self.cfg.target.mass * float(s.tgt_vel @ s.tgt_vel)
+        R = dyn.quat_to_matrix(s.tgt_quat)
+        wb = R.T @ s.tgt_omega
+        ke += 0.5 * float((s.tgt_inertia * wb**2).sum())
+        return ke
+
+    def elastic_energy(self) -> float:
+        """Strain energy (J) of stretched threads and tether segments."""
+        s = self.s
+        act = s.link_active == 1
+        a, b = s.links[act, 0], s.links[act, 1]
+        stretch = np.linalg.norm(s.x[b] - s.x[a], axis=1) - s.link_rest[act]
+        stretch = np.maximum(stretch, 0.0)
+        return float((0.5 * stretch**2 / s.link_compliance[act]).sum())
+
+
+@dataclass
+class EpisodeTrace:
+    """Time series at the metric rate (time in s) and node positions at the state rate."""
+
+    time: list = field(default_factory=list)
+    cqi: list = field(default_factory=list)
+    volume_term: list = field(default_factory=list)
+    area_term: list = field(default_factory=list)
+    distance_term: list = field(default_factory=list)
+    locked_pairs: list = field(default_factory=list)
+    z_rel: list = field(default_factory=list)
+    state_time: list = field(default_factory=list)
+    positions: list = field(default_factory=list)      # each (N_bodies, 3)
+    target_pose: list = field(default_factory=list)    # each [x, y, z, qw, qx, qy, qz]
+
+
+@dataclass
+class EpisodeResult:
+    """Outcome of one capture.  Times in s, mass in kg; NaN where undefined."""
+
+    success: bool
+    settled_cqi: float
+    locked_pairs: int
+    closing_time: float
+    completion_time: float
+    mass: float
+    failure_reason: str
+    wall_time: float
+    seed: int | None
+    steps: int
+    max_penetration: float
+    settled_terms: dict | None = None
+    trace: EpisodeTrace | None = None
+
+    def to_dict(self, with_trace: bool = False) -> dict:
+        d = {k: getattr(self, k) for k in ("success", "settled_cqi", "locked_pairs", "closing_time",
+                                          "completion_time", "mass", "failure_reason", "wall_time",
+                                          "seed", "steps", "max_penetration", "settled_terms")}
+        for k in ("settled_cqi", "closing_time", "completion_time"):
+            if isinstance(d[k], float) and not math.isfinite(d[k]):
+                d[k] = None
+        if with_trace and self.trace is not None:
+            t = asdict(self.trace)
+            t["positions"] = [p.tolist() for p in self.trace.positions]
+            d["trace"] = t
+        return d
+
+
+def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=None) -> EpisodeResult:
+    """Run a prepared simulation to its end: closing activation + settle time, the horizon
+    without closing, or divergence.  ``observer(sim)`` is called at every metric sample."""
+    cfg = sim.cfg
+    t0 = time.perf_counter()
+    metric_every = int(round(1.0 / (cfg.metric_rate * cfg.dt)))
+    state_every = int(round(1.0 / (cfg.state_rate * cfg.dt))) if cfg.state_rate > 0 else 0
+    trace = EpisodeTrace() if record_trace else None
+    reason = ""
+
+    def sample(step):
+        if trace is None and observer is None:
+            return
+        if trace is not None and step % metric_every == 0:
+            terms = sim.cqi()
+            trace.time.append(step * cfg.dt)
+            trace.cqi.append(terms.cqi)
+            trace.volume_term.append(terms.volume_term)
+            trace.area_term.append(terms.area_term)
+            trace.distance_term.append(terms.distance_term)
+            trace.locked_pairs.append(sim.locked_pairs)
+            trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.tgt_pos[2]))
+        if trace is not None and state_every and step % state_every == 0:
+            trace.state_time.append(step * cfg.dt)
+            trace.positions.append(sim.s.x.copy())
+            trace.target_pose.append([*sim.s.tgt_pos, *sim.s.tgt_quat])
+        if observer is not None and step % metric_every == 0:
+            observer(sim)
+
+    sample(sim.step)
+    chunk = metric_every if not state_every else math.gcd(metric_every, state_every)
+    while True:
+        end = sim.end_step()
+        if sim.step >= end:
+            break
+        nxt = min((sim.step // chunk + 1) * chunk, end)
+        sim.advance(nxt - sim.step)
+        reason = sim.divergence()
+        if reason:
+            break
+        sample(sim.step)
+
+    mass = sim.s.design.mass(cfg.density)
+    settled = None
+    if reason:
+        success, cqi_val, n_l = False, math.nan, sim.locked_pairs
+        completion = sim.time
+    elif not sim.closing_active:
+        success, cqi_val, n_l = False, math.nan, sim.locked_pairs
+        reason = f"closing never triggered within the {cfg.horizon:g} s horizon"
+        completion = cfg.horizon
+    else:
+        terms = sim.cqi()
+        settled = terms.to_dict()
+        cqi_val, n_l = terms.cqi, sim.locked_pairs
+        success, reason = capture_verdict(cqi_val, n_l, cfg.success_cqi, cfg.success_locked_pairs)
+        completion = sim.time
+    return EpisodeResult(
+        success=success, settled_cqi=cqi_val, locked_pairs=n_l,
+        closing_time=sim.closing_time if sim.closing_active else math.nan,
+        completion_time=completion, mass=mass, failure_reason=reason,
+        wall_time=time.perf_counter() - t0, seed=None, steps=sim.step,
+        max_penetration=float(sim.max_penetration[0]), settled_terms=settled, trace=trace)
+
+
+def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,
+                record_trace: bool = True) -> EpisodeResult:
+    """Simulate one capture of ``design`` under noise ``sample`` (None: nominal).
+
+    Returns settled CQI and locked pairs 20 s after closing activation, success, closing
+    time and completion time T (s), system mass m_a (kg), a failure reason where it failed,
+    and (if ``record_trace``) the CQI / n_L series and node positions at the configured rates.
+    """
+    cfg = config or SimConfig()
+    actions = actions_for(design, sample)
+    world = world_for(design, sample)
+    return run_actions(design, actions, world, cfg, record_trace,
+                       seed=None if sample is None else sample.seed)
+
+
+def run_actions(design: Design, actions: Actions, world: World, config: SimConfig,
+                record_trace: bool = True, seed: int | None = None, observer=None) -> EpisodeResult:
+    """Episode from explicit actions and world placement (the ROS path uses this)."""
+    sim = CaptureSimulation(build_scenario(design, actions, world, config))
+    res = run_simulation(sim, record_trace=record_trace, observer=observer)
+    res.seed = seed
+    return res

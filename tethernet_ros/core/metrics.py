@@ -1,0 +1,102 @@
+"""Capture metrics of SPEC section 4: the Capture Quality Index, locked pairs, success.
+
+This is the one CQI function of the project (library, workers, monitor node, replay).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, asdict
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+
+@dataclass(frozen=True)
+class CQITerms:
+    """CQI and its parts.  hull_volume (m^3), hull_area (m^2), com_distance q_n (m)."""
+
+    cqi: float
+    volume_term: float
+    area_term: float
+    distance_term: float
+    hull_volume: float
+    hull_area: float
+    com_distance: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def hull_volume_area(points: np.ndarray) -> tuple[float, float]:
+    """Volume (m^3) and surface area (m^2) of the convex hull of (N, 3) points.
+
+    A flat (coplanar) or collinear set has zero volume; its "surface" is both faces of its
+    planar hull, i.e. twice the planar hull's area (the limit of a thin solid).
+    """
+    pts = np.asarray(points, dtype=float)
+    try:
+        hull = ConvexHull(pts)
+        return float(hull.volume), float(hull.area)
+    except QhullError:
+        pass
+    centred = pts - pts.mean(axis=0)
+    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
+    if sv.size < 2 or sv[1] <= 1e-12 * max(sv[0], 1e-300):
+        return 0.0, 0.0
+    planar = centred @ vt[:2].T
+    try:
+        return 0.0, 2.0 * float(ConvexHull(planar).volume)  # 2D 'volume' is the area
+    except QhullError:
+        return 0.0, 0.0
+
+
+def centre_of_mass(positions: np.ndarray, masses: np.ndarray) -> np.ndarray:
+    """Mass-weighted mean position (m)."""
+    m = np.asarray(masses, dtype=float)
+    return (np.asarray(positions, dtype=float) * m[:, None]).sum(axis=0) / m.sum()
+
+
+def capture_quality_index(net_positions: np.ndarray, net_masses: np.ndarray,
+                          target_com: np.ndarray, target_volume: float, target_area: float,
+                          target_min_surface_distance: float) -> CQITerms:
+    """I_CQ = 0.1 |V_n - V_t|/V_t + 0.1 |S_n - S_t|/S_t + 0.8 |q_n|/L_c.
+
+    net_positions (N, 3) and net_masses (N,) are the net's lumped nodes; V_n, S_n are the
+    volume and area of their convex hull, q_n the distance between the net's and the
+    target's centres of mass, L_c the smallest distance from the target's CoM to its surface.
+    """
+    vol, area = hull_volume_area(net_positions)
+    q = float(np.linalg.norm(centre_of_mass(net_positions, net_masses) - np.asarray(target_com)))
+    tv = 0.1 * abs(vol - target_volume) / target_volume
+    ta = 0.1 * abs(area - target_area) / target_area
+    td = 0.8 * q / target_min_surface_distance
+    return CQITerms(cqi=tv + ta + td, volume_term=tv, area_term=ta, distance_term=td,
+                    hull_volume=vol, hull_area=area, com_distance=q)
+
+
+def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
+                    min_locked_pairs: int = 10) -> tuple[bool, str]:
+    """Success rule of SPEC section 4: I*_CQ <= max_cqi and n_L >= min_locked_pairs.
+    Returns (success, failure reason or '')."""
+    if not math.isfinite(settled_cqi):
+        return False, "settled CQI is not finite"
+    reasons = []
+    if settled_cqi > max_cqi:
+        reasons.append(f"settled CQI {settled_cqi:.3f} > {max_cqi:g}")
+    if locked_pairs < min_locked_pairs:
+        reasons.append(f"{locked_pairs} locked pairs < {min_locked_pairs}")
+    return (not reasons), "; ".join(reasons)
+
+
+def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion."""
+    if n <= 0:
+        return 0.0, 1.0
+    from scipy.stats import norm
+
+    z = float(norm.ppf(0.5 + confidence / 2))
+    p = successes / n
+    den = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, centre - half), min(1.0, centre + half)

@@ -1,0 +1,172 @@
+"""The uncertainty model of SPEC section 6: one seeded draw of every noise per sample.
+
+World noises (belong to the scenario): distance offset D_rnd (m) and target rotation
+alpha_rnd (rad) about the configured axis.  Actuator noises: per corner mass a launch speed
+offset v_rnd (m/s), a polar tilt theta_rnd (rad) and an azimuth phi_rnd (rad); and a
+closing-displacement offset d_rnd (m).
+
+This module is the single noise sampler of the project: library, workers and ROS nodes all
+call :meth:`NoiseModel.sample`.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, asdict, replace
+
+import numpy as np
+
+#: Noise sources whose spread can be scaled (sensitivity study).
+NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing")
+
+#: Corner order used everywhere: signs (s_x, s_y) of each corner's launch velocity.
+CORNER_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
+
+
+class NoiseError(ValueError):
+    """A noise setting is outside its allowed range (message names the field)."""
+
+
+@dataclass(frozen=True)
+class NoiseSample:
+    """One Monte Carlo draw.  Angles in rad, lengths in m, speeds in m/s."""
+
+    seed: int | None
+    distance_offset: float = 0.0
+    orientation_angle: float = 0.0
+    speed_offsets: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    polar_angles: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    azimuth_angles: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    closing_offset: float = 0.0
+    orientation_axis: str = "z"
+
+    @classmethod
+    def nominal(cls, orientation_axis: str = "z") -> "NoiseSample":
+        """No noise at all (the nominal, symmetric episode)."""
+        return cls(seed=None, orientation_axis=orientation_axis)
+
+    @property
+    def is_nominal(self) -> bool:
+        return self.seed is None
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        for k in ("speed_offsets", "polar_angles", "azimuth_angles"):
+            d[k] = list(d[k])
+        return d
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Spreads of SPEC section 6 (standard deviations unless stated) and per-source scale
+    factors that multiply them.
+
+    sigma_distance (m), sigma_orientation_deg (deg), sigma_speed (m/s),
+    sigma_polar_deg (deg), azimuth_range_deg (deg, uniform on [0, range)),
+    sigma_closing (m); orientation_axis 'z' (line of sight, default) or 'y'.
+    """
+
+    sigma_distance: float = 0.25
+    sigma_orientation_deg: float = 45.0
+    sigma_speed: float = 0.25
+    sigma_polar_deg: float = 2.0
+    azimuth_range_deg: float = 360.0
+    sigma_closing: float = 0.1
+    orientation_axis: str = "z"
+    scales: dict = field(default_factory=lambda: {s: 1.0 for s in NOISE_SOURCES})
+
+    def __post_init__(self):
+        for name in ("sigma_distance", "sigma_orientation_deg", "sigma_speed",
+                     "sigma_polar_deg", "azimuth_range_deg", "sigma_closing"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise NoiseError(f"noise field '{name}': got {v!r}; must be a finite number >= 0")
+        if self.orientation_axis not in ("z", "y"):
+            raise NoiseError(f"noise field 'orientation_axis': got {self.orientation_axis!r}; "
+                             "must be 'z' or 'y'")
+        scales = {s: 1.0 for s in NOISE_SOURCES}
+        for k, v in dict(self.scales).items():
+            if k not in NOISE_SOURCES:
+                raise NoiseError(f"noise field 'scales.{k}': unknown source; allowed {list(NOISE_SOURCES)}")
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= 100):
+                raise NoiseError(f"noise field 'scales.{k}': got {v!r}; must be in [0, 100]")
+            scales[k] = float(v)
+        object.__setattr__(self, "scales", scales)
+
+    def with_scales(self, **scales: float) -> "NoiseModel":
+        merged = dict(self.scales)
+        merged.update(scales)
+        return replace(self, scales=merged)
+
+    def sample(self, seed: int) -> NoiseSample:
+        """Draw every noise of one sample from ``numpy.random.default_rng(seed)``.
+
+        The draw order is fixed (distance, orientation, then per corner speed, polar,
+        azimuth, then closing), and every quantity is drawn whatever its scale, so sample i
+        gets the same underlying random numbers under every design and scale (common random
+        numbers).
+        """
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise NoiseError(f"noise field 'seed': got {seed!r}; must be an integer >= 0")
+        rng = np.random.default_rng(int(seed))
+        z_dist = rng.standard_normal()
+        z_orient = rng.standard_normal()
+        z_speed = np.empty(4)
+        z_polar = np.empty(4)
+        u_azim = np.empty(4)
+        for i in range(4):
+            z_speed[i] = rng.standard_normal()
+            z_polar[i] = rng.standard_normal()
+            u_azim[i] = rng.random()
+        z_close = rng.standard_normal()
+        s = self.scales
+        deg = math.pi / 180.0
+        return NoiseSample(
+            seed=int(seed),
+            distance_offset=float(z_dist * self.sigma_distance * s["distance"]),
+            orientation_angle=float(z_orient * self.sigma_orientation_deg * deg * s["orientation"]),
+            speed_offsets=tuple(float(v) for v in z_speed * self.sigma_speed * s["speed"]),
+            polar_angles=tuple(float(v) for v in z_polar * self.sigma_polar_deg * deg * s["polar"]),
+            azimuth_angles=tuple(float(v) for v in u_azim * self.azimuth_range_deg * deg * s["azimuth"]),
+            closing_offset=float(z_close * self.sigma_closing * s["closing"]),
+            orientation_axis=self.orientation_axis,
+        )
+
+
+def nominal_corner_velocities(V_e) -> np.ndarray:
+    """(4, 3) nominal launch velocities (m/s): corner k gets [s_x V_x, s_y V_y, V_z]."""
+    vx, vy, vz = (float(v) for v in V_e)
+    out = np.empty((4, 3))
+    out[:, 0] = CORNER_SIGNS[:, 0] * vx
+    out[:, 1] = CORNER_SIGNS[:, 1] * vy
+    out[:, 2] = vz
+    return out
+
+
+def perturb_velocity(v: np.ndarray, speed_offset: float, polar: float, azimuth: float) -> np.ndarray:
+    """Apply the spherical perturbation of SPEC section 6 to one velocity (m/s).
+
+    The speed |v| changes by ``speed_offset``; the direction is tilted away from the
+    nominal direction u by ``polar`` (rad) in the plane spanned by u and
+    e(azimuth) = cos(azimuth) e1 + sin(azimuth) e2, where (e1, e2, u) is right-handed and
+    e1 is the unit vector of z_hat x u (x_hat if u is along z).
+    """
+    v = np.asarray(v, dtype=float)
+    speed = float(np.linalg.norm(v))
+    if speed == 0.0:
+        return v.copy()
+    u = v / speed
+    e1 = np.cross([0.0, 0.0, 1.0], u)
+    n1 = np.linalg.norm(e1)
+    e1 = e1 / n1 if n1 > 1e-12 else np.array([1.0, 0.0, 0.0])
+    e2 = np.cross(u, e1)
+    d = math.cos(polar) * u + math.sin(polar) * (math.cos(azimuth) * e1 + math.sin(azimuth) * e2)
+    return (speed + speed_offset) * d
+
+
+def corner_velocities(V_e, sample: NoiseSample | None) -> np.ndarray:
+    """(4, 3) launch velocities of the corner masses (m/s) with actuator noise applied."""
+    nominal = nominal_corner_velocities(V_e)
+    if sample is None or sample.is_nominal:
+        return nominal
+    return np.array([perturb_velocity(nominal[k], sample.speed_offsets[k], sample.polar_angles[k],
+                                      sample.azimuth_angles[k]) for k in range(4)])

@@ -1,0 +1,308 @@
+"""The one scenario builder: design + launch/closing actions + world state -> the
+structure-of-arrays initial state the kernels integrate.
+
+Body layout (indices into every per-body array):
+  [0, 289)            net nodes, node (i, j) = 17 i + j, i along y, j along x
+  [289, 293)          corner masses, in the corner order of ``noise.CORNER_SIGNS``
+  [293, 293 + S - 1)  main-tether lumped masses, from the net centre toward the winch
+  last                the chaser (winch at the launch point)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import SimConfig
+from .design import Design
+from .noise import CORNER_SIGNS, NoiseSample, corner_velocities
+from .target import Target
+from . import dynamics as dyn
+
+
+#: relaxation of a link group whose links share a body (two links per shared body)
+RELAX_SHARED = 0.5
+
+
+@dataclass(frozen=True)
+class Actions:
+    """What the actuator commands, noise included.
+
+    corner_velocities: (4, 3) launch velocities of the corner masses (m/s);
+    closing_displacement: threshold on z(net CoM) - z(target CoM) that starts closing (m).
+    """
+
+    corner_velocities: np.ndarray
+    closing_displacement: float
+
+
+@dataclass(frozen=True)
+class World:
+    """The target's actual placement: distance of its centre from the launch point along z
+    (m) and its rotation about ``rotation_axis`` ('z' or 'y') from the nominal attitude
+    (long axis along +x) (rad)."""
+
+    distance: float
+    rotation: float = 0.0
+    rotation_axis: str = "z"
+
+
+def actions_for(design: Design, sample: NoiseSample | None) -> Actions:
+    """Noisy (or nominal) actions of a design: the actuator's share of the noise."""
+    cv = corner_velocities(design.V_e, sample)
+    off = 0.0 if sample is None else sample.closing_offset
+    return Actions(corner_velocities=cv, closing_displacement=design.d_c + off)
+
+
+def world_for(design: Design, sample: NoiseSample | None) -> World:
+    """Actual target placement: the world's share of the noise."""
+    if sample is None:
+        return World(distance=design.d_L)
+    return World(distance=design.d_L + sample.distance_offset, rotation=sample.orientation_angle,
+                 rotation_axis=sample.orientation_axis)
+
+
+def grid_index(i: int, j: int, n: int = 17) -> int:
+    return i * n + j
+
+
+def closing_ring(config: SimConfig) -> list[int]:
+    """Perimeter nodes of the drawstring in ring order (12 for the default indices)."""
+    n = config.grid_nodes
+    idx = list(config.closing_indices)
+    ring = [(0, j) for j in idx]                       # bottom edge, +x
+    ring += [(i, n - 1) for i in idx[1:]]              # right edge, +y
+    ring += [(n - 1, j) for j in reversed(idx[:-1])]   # top edge, -x
+    ring += [(i, 0) for i in reversed(idx[1:-1])]      # left edge, -y
+    return [grid_index(i, j, n) for i, j in ring]
+
+
+def corner_nodes(config: SimConfig) -> list[int]:
+    """Net corner node of each corner mass, same order as CORNER_SIGNS."""
+    n = config.grid_nodes - 1
+    out = []
+    for sx, sy in CORNER_SIGNS:
+        out.append(grid_index(n if sy > 0 else 0, n if sx > 0 else 0, config.grid_nodes))
+    return out
+
+
+def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation by ``angle`` (rad) about x/y/z."""
+    q = np.zeros(4)
+    q[0] = math.cos(angle / 2)
+    q[{"x": 1, "y": 2, "z": 3}[axis]] = math.sin(angle / 2)
+    return q
+
+
+@dataclass
+class Scenario:
+    """All arrays of one episode's initial state (mutated in place by the kernels)."""
+
+    design: Design
+    config: SimConfig
+    target: Target
+    x: np.ndarray
+    v: np.ndarray
+    w: np.ndarray
+    mass: np.ndarray
+    radius: np.ndarray
+    contact_mask: np.ndarray
+    links: np.ndarray
+    link_groups: np.ndarray
+    link_relax: np.ndarray
+    link_rest: np.ndarray
+    link_compliance: np.ndarray
+    link_damping: np.ndarray
+    link_active: np.ndarray
+    net_nodes: np.ndarray
+    ring_pairs: np.ndarray
+    pair_locked: np.ndarray
+    pair_maxdist: np.ndarray
+    pair_lock_step: np.ndarray
+    tether_nodes: np.ndarray
+    tether_links: np.ndarray
+    centre_node: int
+    winch_body: int
+    corner_bodies: np.ndarray
+    tgt_pos: np.ndarray
+    tgt_quat: np.ndarray
+    tgt_vel: np.ndarray
+    tgt_omega: np.ndarray
+    tgt_inertia: np.ndarray
+    cyl: np.ndarray
+    verts: np.ndarray
+    offsets: np.ndarray
+    prm: np.ndarray
+    ev: np.ndarray
+
+    @property
+    def n_bodies(self) -> int:
+        return self.x.shape[0]
+
+
+def build_scenario(design: Design, actions: Actions, world: World,
+                   config: SimConfig | None = None) -> Scenario:
+    """Initial state of an episode (SPEC sections 1-3): the stowed net at the launch point,
+    corner masses leaving with ``actions.corner_velocities``, the target at rest at
+    (0, 0, world.distance) rotated by world.rotation, closing armed at
+    ``actions.closing_displacement``."""
+    cfg = config or SimConfig()
+    cv = np.asarray(actions.corner_velocities, dtype=float)
+    if cv.shape != (4, 3) or not np.all(np.isfinite(cv)):
+        raise ValueError("actions field 'corner_velocities': must be 4 x 3 finite values (m/s)")
+    if not math.isfinite(actions.closing_displacement):
+        raise ValueError("actions field 'closing_displacement': must be finite (m)")
+    if not (math.isfinite(world.distance) and world.distance > 0):
+        raise ValueError(f"world field 'distance': got {world.distance}; must be > 0 m")
+    if not math.isfinite(world.rotation):
+        raise ValueError("world field 'rotation': must be finite (rad)")
+    if world.rotation_axis not in ("z", "y"):
+        raise ValueError("world field 'rotation_axis': must be 'z' or 'y'")
+
+    n = cfg.grid_nodes
+    meshes = n - 1
+    l0 = design.L_n / meshes                      # mesh side (m)
+    area = math.pi * design.r_n**2                # thread cross-section (m^2)
+    lin_density = cfg.density * area              # kg/m
+    EA = cfg.young_modulus * area                 # N
+    n_net = n * n
+    n_tether = cfg.tether_segments - 1
+    i_corner0 = n_net
+    i_tether0 = n_net + 4
+    i_chaser = i_tether0 + n_tether
+    nb = i_chaser + 1
+
+    x = np.zeros((nb, 3))
+    v = np.zeros((nb, 3))
+    mass = np.zeros(nb)
+    radius = np.full(nb, cfg.node_contact_radius)
+    contact = np.ones(nb, dtype=np.uint8)
+
+    # stowed net: a flat square of side stowed_fraction * L_n at the launch point
+    s = cfg.stowed_fraction * design.L_n / meshes
+    for i in range(n):
+        for j in range(n):
+            x[grid_index(i, j, n)] = [(j - meshes / 2) * s, (i - meshes / 2) * s, 0.0]
+
+    # Grid threads in groups projected together (dynamics._solve_group).  x-threads
+    # (i, j)-(i, j+1) are grouped by j into classes closed under the mirror j -> 14 - j + 1
+    # that share no node, plus the two centre threads that meet at the centre column;
+    # y-threads likewise by i.  So each pass is the same under x and y mirroring.
+    links, groups, relax = [], [0], []
+    half = meshes // 2
+    classes = [[j for j in range(meshes) if min(j, meshes - 1 - j) % 2 == par
+                and min(j, meshes - 1 - j) < half - 1] for par in (0, 1)]
+    classes.append([half - 1, half])
+    for cls in classes:
+        for i in range(n):
+            for j in cls:
+                links.append((grid_index(i, j, n), grid_index(i, j + 1, n)))
+        groups.append(len(links))
+        relax.append(RELAX_SHARED if len(cls) == 2 else 1.0)
+    for cls in classes:
+        for i in cls:
+            for j in range(n):
+                links.append((grid_index(i, j, n), grid_index(i + 1, j, n)))
+        groups.append(len(links))
+        relax.append(RELAX_SHARED if len(cls) == 2 else 1.0)
+    rest = [l0] * len(links)
+    # lumped thread mass: half of each grid thread to each end node
+    for a, b in links:
+        mass[a] += 0.5 * lin_density * l0
+        mass[b] += 0.5 * lin_density * l0
+    # drawstring mass (the allowance of m_a: 4 L_n of thread) spread over the ring nodes
+    ring = closing_ring(cfg)
+    for r in ring:
+        mass[r] += 4.0 * design.L_n * lin_density / len(ring)
+
+    # corner masses and corner threads
+    lc = cfg.corner_thread_meshes * l0
+    cnodes = corner_nodes(cfg)
+    corner_bodies = np.arange(i_corner0, i_corner0 + 4)
+    for k, (node, body) in enumerate(zip(cnodes, corner_bodies)):
+        sx, sy = CORNER_SIGNS[k]
+        x[body] = x[node] + np.array([sx, sy, 0.0]) * s
+        v[body] = cv[k]
+        mass[body] = design.m_c + 0.5 * lin_density * lc
+        mass[node] += 0.5 * lin_density * lc
+        radius[body] = cfg.corner_mass_radius
+        links.append((node, body))
+        rest.append(lc)
+    groups.append(len(links))
+    relax.append(1.0)
+    n_net_links = len(links)
+
+    # main tether: net centre -> lumped masses -> winch on the chaser
+    centre = grid_index(n // 2, n // 2, n)
+    chain = [centre] + list(range(i_tether0, i_tether0 + n_tether)) + [i_chaser]
+    tether_links = []
+    for a, b in zip(chain[:-1], chain[1:]):
+        tether_links.append(len(links))
+        links.append((a, b))
+        rest.append(0.0)  # set when the winch locks
+        groups.append(len(links))
+        relax.append(1.0)
+    # placeholder masses (set when the winch locks; kinematic until then)
+    mass[i_tether0:i_chaser] = lin_density * 1.0
+    contact[i_tether0:i_chaser] = 0
+    mass[i_chaser] = cfg.chaser_mass
+    contact[i_chaser] = 0
+    radius[i_chaser] = cfg.chaser_side / 2
+
+    links = np.array(links, dtype=np.int64)
+    rest = np.array(rest, dtype=float)
+    k = np.zeros(len(links))
+    k[:n_net_links] = EA / rest[:n_net_links]
+    compliance = np.zeros(len(links))
+    compliance[:n_net_links] = 1.0 / k[:n_net_links]
+    ma, mb = mass[links[:, 0]], mass[links[:, 1]]
+    damping = 2.0 * cfg.damping_ratio * np.sqrt(k * ma * mb / (ma + mb))
+    active = np.zeros(len(links), dtype=np.uint8)
+    active[:n_net_links] = 1
+
+    w = 1.0 / mass
+    w[i_tether0:i_chaser] = 0.0  # kinematic while the winch pays out
+
+    ring_pairs = np.array([(ring[q], ring[(q + 1) % len(ring)]) for q in range(len(ring))], dtype=np.int64)
+
+    target = Target(cfg.target)
+    verts, offsets = target.packed_polygons()
+    prm = np.zeros(dyn.N_PRM)
+    prm[dyn.P_DT] = cfg.dt
+    prm[dyn.P_CLOSE_FORCE] = cfg.closing_force_factor * design.m_c * design.L_n
+    prm[dyn.P_CLOSE_THRESHOLD] = actions.closing_displacement
+    prm[dyn.P_LOCK_DIST] = cfg.lock_distance
+    prm[dyn.P_MU] = cfg.friction
+    prm[dyn.P_K_CONTACT] = cfg.contact_stiffness
+    prm[dyn.P_ZETA_CONTACT] = cfg.contact_damping_ratio
+    prm[dyn.P_TGT_INV_MASS] = 1.0 / cfg.target.mass
+    prm[dyn.P_TGT_BOUND] = target.bounding_radius
+    prm[dyn.P_TETHER_LIN_DENSITY] = lin_density
+    prm[dyn.P_TETHER_EA] = EA
+    prm[dyn.P_ZETA_THREAD] = cfg.damping_ratio
+    ev = np.zeros(dyn.N_EV, dtype=np.int64)
+    ev[dyn.E_CLOSING_ARMED] = 1
+    ev[dyn.E_CLOSING_STEP] = -1
+
+    return Scenario(
+        design=design, config=cfg, target=target, x=x, v=v, w=w, mass=mass, radius=radius,
+        contact_mask=contact, links=links, link_groups=np.array(groups, dtype=np.int64),
+        link_relax=np.array(relax), link_rest=rest, link_compliance=compliance,
+        link_damping=damping, link_active=active, net_nodes=np.arange(n_net, dtype=np.int64),
+        ring_pairs=ring_pairs, pair_locked=np.zeros(len(ring_pairs), dtype=np.uint8),
+        pair_maxdist=np.zeros(len(ring_pairs)), pair_lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
+        tether_nodes=np.arange(i_tether0, i_chaser, dtype=np.int64),
+        tether_links=np.array(tether_links, dtype=np.int64), centre_node=centre, winch_body=i_chaser,
+        corner_bodies=corner_bodies,
+        tgt_pos=np.array([0.0, 0.0, world.distance]),
+        tgt_quat=rotation_quaternion(world.rotation, world.rotation_axis),
+        tgt_vel=np.zeros(3), tgt_omega=np.zeros(3), tgt_inertia=target.inertia.copy(),
+        cyl=target.cylinder(), verts=verts, offsets=offsets, prm=prm, ev=ev,
+    )
+
+
+def scenario_for(design: Design, sample: NoiseSample | None = None,
+                 config: SimConfig | None = None) -> Scenario:
+    """Scenario of one Monte Carlo sample (or the nominal one if ``sample`` is None)."""
+    return build_scenario(design, actions_for(design, sample), world_for(design, sample), config)

@@ -1,0 +1,176 @@
+"""The Zenit-2 second stage: primitive collision geometry and rigid-body properties.
+
+The target is axisymmetric about its body x axis.  Its collision geometry is a union of
+convex solids of revolution, each given by its meridional polygon: vertices (a, r) with a
+the axial coordinate (m, body frame, origin at the centre of mass) and r the signed radial
+coordinate (m), symmetric about r = 0.  The signed distance of a point is the minimum over
+the solids of the 2D polygon distance in its meridional plane (exact outside the body).
+
+Defaults (SPEC section 1): cylinder of diameter 3.9 m and length 10.4 m, dry mass 8300 kg,
+uniform density.  An engine-nozzle frustum may be added behind the -x end.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TargetConfig:
+    """Geometry (m) and mass (kg) of the target.  Nozzle dimensions are used only if
+    ``nozzle`` is True: a frustum of length ``nozzle_length`` attached to the -x end cap,
+    radius ``nozzle_base_radius`` at the cap and ``nozzle_exit_radius`` at its exit."""
+
+    diameter: float = 3.9
+    length: float = 10.4
+    mass: float = 8300.0
+    nozzle: bool = False
+    nozzle_length: float = 2.0
+    nozzle_base_radius: float = 0.5
+    nozzle_exit_radius: float = 1.0
+
+    def __post_init__(self):
+        for name in ("diameter", "length", "mass", "nozzle_length", "nozzle_base_radius",
+                     "nozzle_exit_radius"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"target field '{name}': got {v!r}; must be a finite number > 0")
+        if self.nozzle and self.nozzle_base_radius > self.diameter / 2:
+            raise ValueError("target field 'nozzle_base_radius': must not exceed the stage radius")
+
+
+class Target:
+    """Derived properties of a :class:`TargetConfig` (all in the body frame, about the CoM)."""
+
+    def __init__(self, config: TargetConfig | None = None):
+        self.config = config or TargetConfig()
+
+    # -- solids in the body frame with origin at the geometric centre of the cylinder --
+    def _raw_polygons(self) -> list[np.ndarray]:
+        c = self.config
+        R, L = c.diameter / 2, c.length
+        polys = [np.array([[-L / 2, -R], [L / 2, -R], [L / 2, R], [-L / 2, R]])]
+        if c.nozzle:
+            a0, a1 = -L / 2, -L / 2 - c.nozzle_length
+            r0, r1 = c.nozzle_base_radius, c.nozzle_exit_radius
+            polys.append(np.array([[a1, -r1], [a0, -r0], [a0, r0], [a1, r1]]))
+        return polys
+
+    @cached_property
+    def _mesh(self):
+        """Triangle mesh (trimesh) of the solids, centred at the cylinder's centre."""
+        import trimesh
+
+        c = self.config
+        R, L = c.diameter / 2, c.length
+        rot = trimesh.transformations.rotation_matrix(math.pi / 2, [0, 1, 0])  # z -> x
+        parts = [trimesh.creation.cylinder(radius=R, height=L, sections=256, transform=rot)]
+        if c.nozzle:
+            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
+            # frustum as a revolved trapezoid about z, then rotated so +z -> -x
+            prof = np.array([[0.0, 0.0], [r0, 0.0], [r1, h], [0.0, h]])
+            fr = trimesh.creation.revolve(prof, sections=256)
+            T = trimesh.transformations.rotation_matrix(-math.pi / 2, [0, 1, 0])
+            T[:3, 3] = [-L / 2, 0.0, 0.0]
+            fr.apply_transform(T)
+            parts.append(fr)
+        return parts
+
+    @cached_property
+    def com_offset(self) -> float:
+        """Axial position (m) of the centre of mass from the cylinder's centre."""
+        if not self.config.nozzle:
+            return 0.0
+        vols = [m.volume for m in self._mesh]
+        coms = [m.center_mass[0] for m in self._mesh]
+        return float(np.dot(vols, coms) / sum(vols))
+
+    @cached_property
+    def polygons(self) -> list[np.ndarray]:
+        """Meridional polygons (a, r) relative to the centre of mass (m)."""
+        return [p - np.array([self.com_offset, 0.0]) for p in self._raw_polygons()]
+
+    @cached_property
+    def volume(self) -> float:
+        """V_t (m^3)."""
+        c = self.config
+        R, L = c.diameter / 2, c.length
+        v = math.pi * R**2 * L
+        if c.nozzle:
+            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
+            v += math.pi * h / 3 * (r0**2 + r0 * r1 + r1**2)
+        return v
+
+    @cached_property
+    def area(self) -> float:
+        """S_t (m^2): outer surface of the union (the shared disk is interior)."""
+        c = self.config
+        R, L = c.diameter / 2, c.length
+        s = 2 * math.pi * R**2 + 2 * math.pi * R * L
+        if c.nozzle:
+            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
+            s += math.pi * (r0 + r1) * math.hypot(h, r1 - r0) + math.pi * r1**2 - math.pi * r0**2
+        return s
+
+    @cached_property
+    def inertia(self) -> np.ndarray:
+        """Principal moments (Ixx, Iyy, Izz) about the CoM (kg m^2), uniform density."""
+        c = self.config
+        R, L, M = c.diameter / 2, c.length, c.mass
+        if not c.nozzle:
+            return np.array([0.5 * M * R**2, M * (3 * R**2 + L**2) / 12, M * (3 * R**2 + L**2) / 12])
+        density = M / self.volume
+        total = np.zeros((3, 3))
+        for m in self._mesh:
+            m = m.copy()
+            m.density = density
+            # parallel-axis shift to the combined CoM
+            d = m.center_mass - np.array([self.com_offset, 0.0, 0.0])
+            total += m.moment_inertia + m.mass * (np.dot(d, d) * np.eye(3) - np.outer(d, d))
+        return np.diag(total).copy()
+
+    @cached_property
+    def bounding_radius(self) -> float:
+        """Radius (m) of a sphere about the CoM enclosing the body."""
+        return float(max(np.max(np.hypot(p[:, 0], p[:, 1])) for p in self.polygons))
+
+    @cached_property
+    def min_surface_distance(self) -> float:
+        """L_c (m): smallest distance from the CoM to the surface."""
+        return -self.signed_distance(np.zeros(3))[0]
+
+    def cylinder(self) -> np.ndarray:
+        """[axial centre, half length, radius] (m) of the stage's cylinder about the CoM."""
+        c = self.config
+        return np.array([-self.com_offset, c.length / 2, c.diameter / 2])
+
+    def packed_polygons(self) -> tuple[np.ndarray, np.ndarray]:
+        """(vertices (K, 2), offsets (P + 1,)) of the solids other than the cylinder, for
+        the numba kernels."""
+        polys = self.polygons[1:]
+        if not polys:
+            return np.zeros((0, 2)), np.zeros(1, dtype=np.int64)
+        verts = np.ascontiguousarray(np.concatenate(polys), dtype=np.float64)
+        offsets = np.cumsum([0] + [len(p) for p in polys]).astype(np.int64)
+        return verts, offsets
+
+    def signed_distance(self, p_body) -> tuple[float, np.ndarray]:
+        """Signed distance (m, negative inside) of a body-frame point (about the CoM) and
+        the outward unit normal."""
+        from .dynamics import target_signed_distance
+
+        verts, offsets = self.packed_polygons()
+        d, n = target_signed_distance(np.asarray(p_body, dtype=float), self.cylinder(), verts, offsets)
+        return float(d), n
+
+    def trimesh(self):
+        """A single trimesh of the target in the body frame about the CoM (for figures,
+        markers and checks)."""
+        import trimesh
+
+        mesh = trimesh.util.concatenate([m.copy() for m in self._mesh])
+        mesh.apply_translation([-self.com_offset, 0.0, 0.0])
+        return mesh
