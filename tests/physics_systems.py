@@ -23,7 +23,14 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
     if rest is None:
         rest = np.linalg.norm(x[links[:, 1]] - x[links[:, 0]], axis=1)
     w = np.where(np.isinf(mass), 0.0, 1.0 / mass)
-    cfg = SimConfig(dt=dt, metric_rate=1.0 / (dt * round(1.0 / dt / 10.0)) if dt < 0.1 else 10.0)
+    cfg = SimConfig()
+    slots = np.full((nb, dyn.N_SLOTS), -1, dtype=np.int64)
+    signs = np.zeros((nb, dyn.N_SLOTS))
+    used = np.zeros(nb, dtype=int)
+    for m, (a, b) in enumerate(links):
+        for body, sign in ((a, 1.0), (b, -1.0)):
+            slots[body, used[body]], signs[body, used[body]] = m, sign
+            used[body] += 1
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
     prm = np.zeros(dyn.N_PRM)
@@ -31,7 +38,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
     prm[dyn.P_CLOSE_THRESHOLD] = 1e9
     prm[dyn.P_LOCK_DIST] = 1.0
     prm[dyn.P_MU] = cfg.friction
-    prm[dyn.P_K_CONTACT] = cfg.contact_stiffness
+    prm[dyn.P_OMEGA_CONTACT] = cfg.contact_frequency
     prm[dyn.P_ZETA_CONTACT] = cfg.contact_damping_ratio
     prm[dyn.P_TGT_INV_MASS] = 1.0 / cfg.target.mass
     prm[dyn.P_TGT_BOUND] = target.bounding_radius
@@ -42,10 +49,10 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
         design=REFERENCE_DESIGNS["baseline"], config=cfg, target=target, x=x, v=v, w=w,
         mass=np.where(np.isinf(mass), 1e300, mass), radius=np.full(nb, 0.02),
         contact_mask=np.ones(nb, dtype=np.uint8), links=links,
-        link_groups=np.arange(nl + 1, dtype=np.int64), link_relax=np.ones(nl),
-        link_rest=np.asarray(rest, dtype=float), link_compliance=1.0 / np.broadcast_to(stiffness, (nl,)).astype(float),
-        link_damping=np.broadcast_to(damping, (nl,)).astype(float).copy(),
-        link_active=np.ones(nl, dtype=np.uint8), net_nodes=np.arange(nb, dtype=np.int64),
+        link_rest=np.asarray(rest, dtype=float), link_k=np.broadcast_to(stiffness, (nl,)).astype(float).copy(),
+        link_c=np.broadcast_to(damping, (nl,)).astype(float).copy(),
+        link_active=np.ones(nl, dtype=np.uint8), node_links=slots, node_link_sign=signs,
+        dt=dt, stable_step=dt, net_nodes=np.arange(nb, dtype=np.int64),
         ring_pairs=np.zeros((0, 2), dtype=np.int64), pair_locked=np.zeros(0, dtype=np.uint8),
         pair_maxdist=np.zeros(0), pair_lock_step=np.zeros(0, dtype=np.int64),
         tether_nodes=np.zeros(0, dtype=np.int64), tether_links=np.zeros(0, dtype=np.int64),

@@ -54,21 +54,26 @@ def test_thread_spring_mass_frequency_matches_analytic(zeta):
     assert measured == pytest.approx(omega_d, rel=0.01)
 
 
-def test_oscillator_energy_loss_without_damping_vanishes_with_step():
-    """Undamped: the only loss is the integrator's (implicit Euler, first order)."""
+def test_oscillator_energy_conserved_without_damping():
+    """Symplectic Euler: no secular drift, a bounded O(omega dt) oscillation that shrinks
+    linearly with the step."""
     mass = 1.0
     period = 2 * math.pi / math.sqrt(2 * K_THREAD / mass)
-    losses = []
-    for n_per_period in (500, 1000, 2000):
+    spreads = []
+    for n_per_period in (100, 200):
         sim = CaptureSimulation(_oscillator(mass, 0.0, dt=period / n_per_period))
         e0 = sim.kinetic_energy() + sim.elastic_energy()
-        sim.advance(n_per_period * 3)
-        e1 = sim.kinetic_energy() + sim.elastic_energy()
-        losses.append((e0 - e1) / e0)
-    assert all(0 <= l for l in losses)
-    assert losses[-1] < 0.06                      # 3 periods at 2000 steps per period
-    assert losses[0] / losses[1] == pytest.approx(2.0, rel=0.15)   # first order in dt
-    assert losses[1] / losses[2] == pytest.approx(2.0, rel=0.15)
+        e = []
+        for _ in range(50 * n_per_period // 10):      # 50 periods
+            sim.advance(10)
+            e.append(sim.kinetic_energy() + sim.elastic_energy())
+        e = np.array(e) / e0
+        spreads.append(np.abs(e - 1).max())
+        # no drift: the last ten periods look like the first ten
+        k = len(e) // 5
+        assert abs(e[-k:].mean() - e[:k].mean()) < 1e-3
+    assert spreads[1] < 0.05
+    assert spreads[0] / spreads[1] == pytest.approx(2.0, rel=0.25)
 
 
 def test_threads_never_push():
@@ -98,7 +103,7 @@ def test_momentum_conserved_in_free_flight():
     scale = np.abs(sim.s.mass[:, None] * sim.s.v).sum()
     for _ in range(6):
         sim.advance(500)
-        assert np.abs(sim.linear_momentum() - p0).max() < 1e-12 * scale
+        assert np.abs(sim.linear_momentum() - p0).max() < 1e-11 * scale
     # the threads did work: the corner masses were slowed by the net
     assert np.linalg.norm(sim.s.v[sim.s.corner_bodies[0]]) < 0.99 * np.linalg.norm(REFERENCE_DESIGNS["time-min"].V_e)
 
@@ -117,15 +122,33 @@ def test_momentum_conserved_through_contact_with_target():
     assert np.linalg.norm(sim.s.tgt_vel) > 0         # the target was pushed
 
 
-def test_energy_never_gained_with_damping():
-    sim = CaptureSimulation(_far_scenario("suboptimal"))
-    e = [sim.kinetic_energy() + sim.elastic_energy()]
-    for _ in range(300):
-        sim.advance(20)
+def _deployment_energy(name, config, seconds=3.0, every=0.01):
+    sim = CaptureSimulation(_far_scenario(name, config=config))
+    e = [sim.kinetic_energy()]
+    n = int(round(every / sim.dt))
+    for _ in range(int(round(seconds / every))):
+        sim.advance(n)
         e.append(sim.kinetic_energy() + sim.elastic_energy())
-    e = np.array(e)
-    assert np.all(np.diff(e) <= 1e-9 * e[0])
-    assert e[-1] < 0.95 * e[0]                      # deployment does dissipate
+    return np.array(e) / e[0]
+
+
+@pytest.mark.parametrize("name", ["suboptimal", "baseline"])
+def test_energy_never_gained_with_damping(name):
+    """With thread damping the energy of the flying net only falls (to within the explicit
+    integrator's O(omega dt) fluctuation, measured at 1.4e-4 of the launch energy)."""
+    e = _deployment_energy(name, SimConfig())
+    assert np.all(np.diff(e) <= 1e-3)
+    assert e[-1] < 0.9
+
+
+@pytest.mark.parametrize("name", ["suboptimal", "baseline"])
+def test_energy_conserved_without_damping(name):
+    """Without thread damping the energy of the deploying net (snap loads included) stays
+    within a few per cent, and closer at half the step."""
+    e = _deployment_energy(name, SimConfig(damping_ratio=0.0))
+    e_half = _deployment_energy(name, SimConfig(damping_ratio=0.0, dt_safety=0.25))
+    assert np.abs(e - 1).max() < 0.06
+    assert np.abs(e_half - 1).max() < 0.03
 
 
 def test_energy_conserved_while_threads_slack():
@@ -135,18 +158,6 @@ def test_energy_conserved_while_threads_slack():
     sim.advance(20)
     assert sim.elastic_energy() == 0.0
     assert sim.kinetic_energy() == pytest.approx(e0, rel=1e-14)
-
-
-def test_energy_undamped_deployment_loss_shrinks_with_step():
-    """Without thread damping the only loss is numerical and it falls with dt."""
-    losses = []
-    for dt in (1e-3, 2.5e-4):
-        sim = CaptureSimulation(_far_scenario("suboptimal", config=SimConfig(damping_ratio=0.0, dt=dt)))
-        e0 = sim.kinetic_energy()
-        sim.advance(int(round(2.0 / dt)))
-        losses.append((e0 - sim.kinetic_energy() - sim.elastic_energy()) / e0)
-    assert losses[0] >= 0 and losses[1] >= 0
-    assert losses[1] < 0.6 * losses[0]
 
 
 def _mirror_maps():
@@ -160,7 +171,7 @@ def test_symmetric_launch_stays_mirror_symmetric():
     sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, SimConfig()))
     mx, my = _mirror_maps()
     while sim.time < 4.5:
-        sim.advance(250)
+        sim.advance(2000)
         x = sim.s.x[:289]
         assert np.abs(x[mx, 0] + x[:, 0]).max() < 1e-12
         assert np.abs(x[mx, 1:] - x[:, 1:]).max() < 1e-12
@@ -190,7 +201,7 @@ def test_closing_force_and_lock():
 
     m, F = 0.05, 2 * 2.0 * 20.0 / 25
     sc = particle_system([[0, 0, 0], [3.0, 0, 0]], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
-                         rest=[100.0], dt=1e-3)
+                         rest=[100.0], dt=1e-4)
     sc.link_active[:] = 0
     sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
     sc.pair_locked = np.zeros(1, dtype=np.uint8)
@@ -199,10 +210,10 @@ def test_closing_force_and_lock():
     sc.prm[dyn.P_CLOSE_FORCE] = F
     sc.ev[dyn.E_CLOSING_ACTIVE] = 1
     sim = CaptureSimulation(sc)
-    sim.advance(100)
+    sim.advance(1000)
     t = sim.time
     # x(t) = F/m t^2 / 2 for each node (symplectic Euler: exact to O(dt))
-    assert sim.s.x[0, 0] == pytest.approx(0.5 * F / m * t * t, rel=0.02)
+    assert sim.s.x[0, 0] == pytest.approx(0.5 * F / m * t * t, rel=0.01)
     assert sim.s.v[0, 0] == pytest.approx(F / m * t, rel=1e-9)
     while not sc.pair_locked[0]:
         gap = sim.s.x[1, 0] - sim.s.x[0, 0]
@@ -213,7 +224,7 @@ def test_closing_force_and_lock():
     sim.s.v[1] = [20.0, -1.0, 2.0]
     dmax = sc.pair_maxdist[0]
     for _ in range(200):
-        sim.advance(5)
+        sim.advance(50)
         d = np.linalg.norm(sim.s.x[1] - sim.s.x[0])
         assert d <= dmax + 1e-9
         assert sc.pair_locked[0] == 1
@@ -269,6 +280,7 @@ def test_time_step_convergence_of_baseline():
     """Halving the step changes the baseline's settled CQI by under 2 % and n_L not at all."""
     cfg = SimConfig()
     a = run_episode(REFERENCE_DESIGNS["baseline"], None, cfg, record_trace=False)
-    b = run_episode(REFERENCE_DESIGNS["baseline"], None, cfg.replace(dt=cfg.dt / 2), record_trace=False)
+    b = run_episode(REFERENCE_DESIGNS["baseline"], None, cfg.replace(dt_safety=cfg.dt_safety / 2),
+                    record_trace=False)
     assert abs(a.settled_cqi - b.settled_cqi) / b.settled_cqi < 0.02
     assert a.locked_pairs == b.locked_pairs

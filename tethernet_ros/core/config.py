@@ -16,7 +16,8 @@ class ConfigError(ValueError):
 
 # field -> (lower, upper, what) ; bounds inclusive, checked for finiteness too
 _LIMITS = {
-    "dt": (1e-6, 0.01, "a time step in [1e-6, 0.01] s"),
+    "dt": (0.0, 0.01, "a time step in (0, 0.01] s, or 0 for the automatic stable step"),
+    "dt_safety": (0.01, 1.0, "a fraction of the stable step in [0.01, 1]"),
     "horizon": (1.0, 3600.0, "a horizon in [1, 3600] s"),
     "settle_time": (0.0, 600.0, "a settling time in [0, 600] s"),
     "young_modulus": (1e6, 1e13, "an effective Young's modulus in [1e6, 1e13] Pa"),
@@ -28,7 +29,7 @@ _LIMITS = {
     "lock_distance": (0.0, 100.0, "a lock distance in [0, 100] m"),
     "closing_force_factor": (0.0, 1e3, "a factor in [0, 1e3] (F_c = factor m_c L_n)"),
     "friction": (0.0, 10.0, "a friction coefficient in [0, 10]"),
-    "contact_stiffness": (1.0, 1e12, "a contact stiffness in [1, 1e12] N/m"),
+    "contact_frequency": (1.0, 1e5, "a contact natural frequency in [1, 1e5] rad/s"),
     "contact_damping_ratio": (0.0, 10.0, "a damping ratio in [0, 10]"),
     "node_contact_radius": (1e-4, 1.0, "a radius in [1e-4, 1] m"),
     "corner_mass_radius": (1e-4, 1.0, "a radius in [1e-4, 1] m"),
@@ -46,15 +47,17 @@ _LIMITS = {
 class SimConfig:
     """Model and integration settings.
 
-    dt: integration step (s); horizon: simulated time by which closing must trigger (s);
+    dt: integration step (s); 0 picks dt_safety times the stable step of the design's
+    threads (dynamics.stable_step), rounded down to divide the metric interval; horizon: simulated time by which closing must trigger (s);
     settle_time: delay after closing activation at which settled CQI and n_L are read (s).
     Threads: young_modulus E (Pa), damping_ratio zeta, density rho (kg/m^3).
     Net: grid of 17 x 17 nodes, stowed square of side stowed_fraction * L_n; corner threads
     of corner_thread_meshes mesh sides; main tether of tether_segments segments.
     Closing: F_c = closing_force_factor * m_c * L_n (N) per adjacent pair, lock below
     lock_distance (m); the drawstring runs through grid indices closing_indices on each side.
-    Contact: Coulomb friction coefficient, penalty stiffness (N/m) and damping ratio
-    (relative to each body's mass), sphere radii of net/tether nodes and corner masses (m).
+    Contact: Coulomb friction coefficient; Kelvin-Voigt penalty given per body by a natural
+    frequency omega_c (rad/s; stiffness m omega_c^2, so an impact at v sinks about
+    v / omega_c) and damping ratio; sphere radii of net/tether nodes and corner masses (m).
     Chaser: free-floating cube of chaser_mass (kg) and chaser_side (m); the winch sits at the
     launch point.
     Output: metric_rate (Hz) of the CQI / n_L trace, state_rate (Hz) of node positions.
@@ -62,7 +65,8 @@ class SimConfig:
     Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
     """
 
-    dt: float = 1e-3
+    dt: float = 0.0
+    dt_safety: float = 0.5
     horizon: float = 120.0
     settle_time: float = 20.0
     young_modulus: float = 70e9
@@ -76,7 +80,7 @@ class SimConfig:
     lock_distance: float = 1.0
     closing_force_factor: float = 2.0 / 25.0
     friction: float = 0.3
-    contact_stiffness: float = 1e6
+    contact_frequency: float = 1000.0
     contact_damping_ratio: float = 0.3
     node_contact_radius: float = 0.02
     corner_mass_radius: float = 0.05
@@ -107,9 +111,18 @@ class SimConfig:
         object.__setattr__(self, "closing_indices", idx)
         if isinstance(self.target, dict):
             object.__setattr__(self, "target", TargetConfig(**self.target))
-        steps_per_metric = 1.0 / (self.metric_rate * self.dt)
-        if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
-            raise ConfigError("config field 'metric_rate': 1/(metric_rate*dt) must be a whole number of steps")
+        if self.dt > 0:
+            steps_per_metric = 1.0 / (self.metric_rate * self.dt)
+            if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
+                raise ConfigError("config field 'dt': 1/(metric_rate*dt) must be a whole number of steps")
+
+    def step_for(self, stable_step: float) -> float:
+        """The integration step (s): ``dt`` if set, else dt_safety * stable_step rounded
+        down so that a whole number of steps fills the metric interval."""
+        if self.dt > 0:
+            return self.dt
+        interval = 1.0 / self.metric_rate
+        return interval / math.ceil(interval / (self.dt_safety * stable_step))
 
     def replace(self, **changes) -> "SimConfig":
         return replace(self, **changes)

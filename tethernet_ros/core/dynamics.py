@@ -1,29 +1,36 @@
-"""The numba kernels: one time step of the lumped-parameter net, its contacts with the
-target and the drawstring closing, repeated ``n_steps`` times.
+"""The numba kernel: time steps of the lumped-parameter net, its contacts with the target
+and the drawstring closing, ``n_steps`` at a time.
 
 Numerical method
 ----------------
-Threads have axial stiffness k = E pi r^2 / l0 up to ~1e7 N/m on nodes of a few grams:
-their axial modes (omega ~ sqrt(E/rho)/l0 ~ 6000 rad/s) would force an explicit integrator
-to dt < ~1.5e-4 s.  Those modes are also damped by the threads' own damping (zeta = 0.106,
-decay time 1/(zeta omega) ~ 2 ms), so nothing of them survives to the time scale of a
-capture (seconds).  We therefore integrate with small-step XPBD (Macklin et al. 2016,
-2019): each step predicts positions with the external forces, then makes one Gauss-Seidel
-pass over the compliant constraints.  With one pass per step this is the implicit (backward)
-Euler method for each spring-damper in turn:
+Symplectic (semi-implicit) Euler: forces at the start of the step, then v += dt F/m and
+x += dt v.  It is explicit, second-order in its energy behaviour (no secular drift of the
+energy of an undamped system, a bounded oscillation of size O(omega dt)), conserves linear
+momentum to round-off (every force has an equal and opposite one, on the target too), and
+converges to the continuous Kelvin-Voigt model of the SPEC as dt -> 0: snap loads, which an
+implicit or constraint-based integrator at large steps would absorb as inelastic impacts,
+rebound with the restitution the thread damping gives.
 
-    * thread (tension-only Kelvin-Voigt): compliance alpha = 1/k, damping c = 2 zeta
-      sqrt(k m_eff); force only while stretched and never pushing;
-    * contact (Kelvin-Voigt penalty, never pulling) with stiffness k_c and damping c_c;
-    * drawstring lock: a distance joint whose maximum distance ratchets down toward 0
-      (rigid, one-sided);
+Its stable step is set by the stiffest thread: omega_max^2 <= max_i sum_l k_l (w_i +
+sqrt(w_i w_j)) (Gershgorin bound of M^-1 K) and dt <= 2 / omega_max; for a net of mesh side
+l0 this is dt ~ l0 / sqrt(2 E / rho) ~ 1.2e-4 s at l0 = 1.25 m, independent of the thread
+radius.  ``stable_step`` computes it and the configuration takes a safety fraction of it.
 
-then velocities are v = (x - x_prev)/dt, and Coulomb friction is applied as a velocity
-projection bounded by mu times the normal impulse.  Implicit Euler is unconditionally
-stable for the springs, first-order accurate, and dissipates: slow modes (pendulum,
-flight, wrapping; omega dt << 1) are integrated accurately, the stiff axial modes are
-damped at once.  Linear momentum is conserved to round-off by every constraint and contact
-(equal and opposite impulses act on the target).
+Forces:
+  * thread (tension-only Kelvin-Voigt): F = k C + c dC/dt along the thread while C > 0 and
+    F > 0 (a thread never pushes), k = E A / l0, c = 2 zeta sqrt(k m_eff);
+  * contact (Kelvin-Voigt penalty, never pulling): F_n = k_i delta - c_i v_n > 0 with
+    k_i = m_i omega_c^2, c_i = 2 zeta_c m_i omega_c per body (a contact natural frequency,
+    so penetration at impact speed v is about v / omega_c whatever the body's mass, and
+    the contact never limits the stable step); regularised Coulomb friction of magnitude
+    min(mu F_n, m |v_t| / dt) against the tangential slip (a scaled box that cannot
+    reverse the slip within a step);
+  * drawstring: constant F_c along each adjacent closing pair; a locked pair is a one-sided
+    distance joint whose maximum distance ratchets down toward 0 (positions projected,
+    separating velocity removed, momentum kept).
+
+Forces on a body are gathered in a fixed, mirror-invariant order (left + right) + (down +
+up) + ..., so that a symmetric state stays symmetric to the last bit.
 
 Units: SI throughout (m, s, kg, N).
 """
@@ -33,12 +40,16 @@ import numpy as np
 from numba import njit
 
 # indices into the float parameter vector ``prm``
-P_DT, P_CLOSE_FORCE, P_CLOSE_THRESHOLD, P_LOCK_DIST, P_MU, P_K_CONTACT, P_ZETA_CONTACT, \
-    P_TGT_INV_MASS, P_TGT_BOUND, P_TETHER_LIN_DENSITY, P_TETHER_EA, P_ZETA_THREAD = range(12)
+(P_DT, P_CLOSE_FORCE, P_CLOSE_THRESHOLD, P_LOCK_DIST, P_MU, P_OMEGA_CONTACT, P_ZETA_CONTACT,
+ P_TGT_INV_MASS, P_TGT_BOUND, P_TETHER_LIN_DENSITY, P_TETHER_EA, P_ZETA_THREAD) = range(12)
 N_PRM = 12
 # indices into the integer state vector ``ev``
-E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED, E_MAX_CONTACTS = range(6)
-N_EV = 6
+E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
+N_EV = 5
+#: slots of ``node_links``: left, right, down, up grid threads, then two others
+N_SLOTS = 6
+#: Jacobi passes of the drawstring-lock projection per step
+LOCK_PASSES = 4
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -151,118 +162,36 @@ def quat_to_matrix_into(q, R):
     R[2, 2] = 1 - 2 * (x * x + y * y)
 
 
-@njit(cache=True, inline='always', error_model='numpy')
-def _link_multiplier(x, xp, w, i, j, rest, gamma, inv_den, rigid, out_n):
-    """XPBD multiplier increment (N s^2; <= 0 means tension) of a tension-only
-    spring-damper between bodies i and j; its unit direction i -> j goes to out_n.
-
-    gamma = c / (k dt) is the damping factor and inv_den = 1 / ((1 + gamma)(w_i + w_j)
-    + 1/(k dt^2)) the inverse of the effective mass term; with ``rigid`` the link is a
-    one-sided rigid distance limit instead."""
-    dx = x[j, 0] - x[i, 0]
-    dy = x[j, 1] - x[i, 1]
-    dz = x[j, 2] - x[i, 2]
-    length = np.sqrt(dx * dx + dy * dy + dz * dz)
-    C = length - rest
-    if C <= 0.0 or length < 1e-14:
-        return 0.0
-    inv_len = 1.0 / length
-    nx = dx * inv_len
-    ny = dy * inv_len
-    nz = dz * inv_len
-    out_n[0] = nx
-    out_n[1] = ny
-    out_n[2] = nz
-    if rigid:
-        wsum = w[i] + w[j]
-        if wsum == 0.0:
-            return 0.0
-        return -C / wsum
-    rel = (nx * ((x[j, 0] - xp[j, 0]) - (x[i, 0] - xp[i, 0]))
-           + ny * ((x[j, 1] - xp[j, 1]) - (x[i, 1] - xp[i, 1]))
-           + nz * ((x[j, 2] - xp[j, 2]) - (x[i, 2] - xp[i, 2])))
-    dlam = (-C - gamma * rel) * inv_den
-    if dlam > 0.0:  # the damper would push: a thread never pushes
-        dlam = 0.0
-    return dlam
-
-
-@njit(cache=True, error_model='numpy')
-def _solve_group(x, xp, w, pairs, start, stop, rest, gamma, inv_den, active, rigid, relax,
-                 dl, dn, corr):
-    """Project the links pairs[start:stop] together (Jacobi within the group): every
-    multiplier is computed from the same positions, the corrections are summed per body
-    and then applied.  Groups of links that share no body are exactly Gauss-Seidel; the
-    result never depends on the order of links inside a group (mirror symmetry).  A group
-    with ``relax`` == 1 must share no body and is projected link by link (the same result,
-    cheaper).  Where links of a group share bodies, ``relax`` (0.5 for a body in two links)
-    scales the multipliers so that the summed correction cannot overshoot."""
-    if relax == 1.0:
-        # links of the group share no body: project and apply one after the other
-        for m in range(start, stop):
-            if active[m] == 1:
-                d = _link_multiplier(x, xp, w, pairs[m, 0], pairs[m, 1], rest[m],
-                                     gamma[m], inv_den[m], rigid, dn[m])
-                if d != 0.0:
-                    i = pairs[m, 0]
-                    j = pairs[m, 1]
-                    for c in range(3):
-                        x[i, c] -= w[i] * d * dn[m, c]
-                        x[j, c] += w[j] * d * dn[m, c]
-        return
-    for m in range(start, stop):
-        dl[m] = 0.0
-        if active[m] == 1:
-            dl[m] = _link_multiplier(x, xp, w, pairs[m, 0], pairs[m, 1], rest[m],
-                                     gamma[m], inv_den[m], rigid, dn[m]) * relax
-    for m in range(start, stop):
-        if dl[m] != 0.0:
-            i = pairs[m, 0]
-            j = pairs[m, 1]
-            for c in range(3):
-                corr[i, c] -= w[i] * dl[m] * dn[m, c]
-                corr[j, c] += w[j] * dl[m] * dn[m, c]
-    for m in range(start, stop):
-        if dl[m] != 0.0:
-            i = pairs[m, 0]
-            j = pairs[m, 1]
-            for c in range(3):
-                x[i, c] += corr[i, c]
-                corr[i, c] = 0.0
-                x[j, c] += corr[j, c]
-                corr[j, c] = 0.0
-
-
-@njit(cache=True, error_model='numpy')
-def _link_factors(links, link_compliance, link_damping, w, dt, gamma, inv_den):
-    """Per-link constants of the XPBD update (see _solve_link)."""
-    for m in range(links.shape[0]):
-        a = links[m, 0]
-        b = links[m, 1]
-        wsum = w[a] + w[b]
-        g = link_compliance[m] * link_damping[m] / dt
-        den = (1.0 + g) * wsum + link_compliance[m] / (dt * dt)
-        gamma[m] = g
-        inv_den[m] = 1.0 / den if den > 0.0 else 0.0
+def stable_step(links, link_k, link_active, w, n_bodies):
+    """Upper bound of the highest natural frequency omega_max (rad/s) of the active
+    threads (Gershgorin bound of M^-1 K), and the stable step 2 / omega_max (s)."""
+    lam = np.zeros(n_bodies)
+    act = link_active == 1
+    a, b, k = links[act, 0], links[act, 1], link_k[act]
+    cross = np.sqrt(w[a] * w[b])
+    np.add.at(lam, a, k * (w[a] + cross))
+    np.add.at(lam, b, k * (w[b] + cross))
+    omega = float(np.sqrt(lam.max()))
+    return omega, 2.0 / omega
 
 
 @njit(cache=True, error_model='numpy')
 def advance(n_steps, x, v, w, mass, radius, contact_mask,
-            links, link_groups, link_relax, link_rest, link_compliance, link_damping, link_active,
+            links, link_rest, link_k, link_c, link_active, node_links, node_link_sign,
             net_nodes, ring_pairs, pair_locked, pair_maxdist, pair_lock_step,
             tether_nodes, tether_links, centre_node, winch_body,
             tgt_pos, tgt_quat, tgt_vel, tgt_omega, tgt_inertia, cyl, verts, offsets,
-            prm, ev, contact_count, max_penetration, work_xp, work_cn, work_cj, work_cb):
+            prm, ev, contact_count, max_penetration, work_lf, work_f):
     """Advance the state ``n_steps`` steps of dt = prm[P_DT] in place.
 
     x, v: (N, 3) positions (m) and velocities (m/s); w: (N,) inverse masses (1/kg, 0 for
     kinematic bodies); mass (N,) (kg); radius (N,) contact sphere radii (m);
     contact_mask (N,) 1 where the body collides with the target.
     links (M, 2) body pairs of the threads and tether segments with rest length (m),
-    compliance 1/k (m/N), damping c (N s/m) and an active flag; link_groups (G + 1,) the
-    start of each group of links projected together and link_relax (G,) its relaxation
-    (see _solve_group).
-    ring_pairs (12, 2): adjacent drawstring nodes; pair_locked/pair_maxdist/pair_lock_step
+    stiffness k (N/m), damping c (N s/m) and an active flag; node_links (N, 6) the links
+    acting on each body in the slots (left, right, down, up, other, other) or -1, and
+    node_link_sign (N, 6) +1 where the body is the link's first end, -1 where second.
+    ring_pairs (P, 2): adjacent drawstring nodes; pair_locked/pair_maxdist/pair_lock_step
     hold the lock state.  tether_nodes: indices of the tether's lumped masses (kinematic
     on a straight line while the winch pays out); tether_links: their link indices.
     Target: position (m), quaternion (w,x,y,z), velocity (m/s), angular velocity (rad/s,
@@ -270,6 +199,7 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
     and meridional polygons of any extra solid (verts, offsets).
     ev: integer episode state (see E_* indices); contact_count accumulates body-steps in
     contact; max_penetration[0] the deepest penetration (m) seen.
+    work_lf (M, 3) and work_f (N, 3) are scratch arrays.
     """
     dt = prm[P_DT]
     n_bodies = x.shape[0]
@@ -278,34 +208,102 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
     n_tether = tether_nodes.shape[0]
     close_force = prm[P_CLOSE_FORCE]
     mu = prm[P_MU]
-    kc = prm[P_K_CONTACT]
+    om_c = prm[P_OMEGA_CONTACT]
+    k_c_unit = om_c * om_c                      # contact stiffness per kg
+    c_c_unit = 2.0 * prm[P_ZETA_CONTACT] * om_c  # contact damping per kg
     tgt_w = prm[P_TGT_INV_MASS]
     bound = prm[P_TGT_BOUND]
     inv_i = 1.0 / tgt_inertia
-    link_dl = np.zeros(n_links)
-    link_dn = np.zeros((n_links, 3))
-    pair_dl = np.zeros(n_pairs)
-    pair_dn = np.zeros((n_pairs, 3))
-    pair_zero = np.zeros(n_pairs)
-    corr = np.zeros((n_bodies, 3))
-    R = np.empty((3, 3))
-    link_gamma = np.empty(n_links)
-    link_inv_den = np.empty(n_links)
-    _link_factors(links, link_compliance, link_damping, w, dt, link_gamma, link_inv_den)
-    # per-body contact constants: damping factor and inverse effective mass term
-    body_gamma = np.empty(n_bodies)
-    body_inv_den = np.empty(n_bodies)
-    at_c = 1.0 / (kc * dt * dt)
-    for i in range(n_bodies):
-        cc = 2.0 * prm[P_ZETA_CONTACT] * np.sqrt(kc * mass[i])
-        body_gamma[i] = cc / (kc * dt)
-        body_inv_den[i] = 1.0 / ((1.0 + body_gamma[i]) * w[i] + at_c)
     net_mass = 0.0
     for k in range(net_nodes.shape[0]):
         net_mass += mass[net_nodes[k]]
+    R = np.empty((3, 3))
+    pair_f = np.zeros((max(n_pairs, 1), 3))
+    lock_corr = np.zeros((n_bodies, 3))
+    lock_count = np.zeros(n_bodies)
 
     for _ in range(n_steps):
-        # ---- 1. external forces: drawstring closing -------------------------------
+        quat_to_matrix_into(tgt_quat, R)
+        ox, oy, oz = tgt_omega[0], tgt_omega[1], tgt_omega[2]
+        # ---- 1. thread and tether forces, per link ---------------------------------
+        for m in range(n_links):
+            work_lf[m, 0] = 0.0
+            work_lf[m, 1] = 0.0
+            work_lf[m, 2] = 0.0
+            if link_active[m] == 0:
+                continue
+            i = links[m, 0]
+            j = links[m, 1]
+            dx = x[j, 0] - x[i, 0]
+            dy = x[j, 1] - x[i, 1]
+            dz = x[j, 2] - x[i, 2]
+            len2 = dx * dx + dy * dy + dz * dz
+            if len2 <= link_rest[m] * link_rest[m] or len2 < 1e-28:
+                continue  # slack: no sqrt needed
+            length = np.sqrt(len2)
+            C = length - link_rest[m]
+            inv_len = 1.0 / length
+            nx = dx * inv_len
+            ny = dy * inv_len
+            nz = dz * inv_len
+            cdot = nx * (v[j, 0] - v[i, 0]) + ny * (v[j, 1] - v[i, 1]) + nz * (v[j, 2] - v[i, 2])
+            F = link_k[m] * C + link_c[m] * cdot
+            if F <= 0.0:  # the damper would push: a thread never pushes
+                continue
+            work_lf[m, 0] = F * nx
+            work_lf[m, 1] = F * ny
+            work_lf[m, 2] = F * nz
+        # ---- 2. gather per body, mirror-invariant order ----------------------------
+        for i in range(n_bodies):
+            gx0 = 0.0
+            gy0 = 0.0
+            gz0 = 0.0
+            gx1 = 0.0
+            gy1 = 0.0
+            gz1 = 0.0
+            gx2 = 0.0
+            gy2 = 0.0
+            gz2 = 0.0
+            m = node_links[i, 0]
+            if m >= 0:
+                sg = node_link_sign[i, 0]
+                gx0 = sg * work_lf[m, 0]
+                gy0 = sg * work_lf[m, 1]
+                gz0 = sg * work_lf[m, 2]
+            m = node_links[i, 1]
+            if m >= 0:
+                sg = node_link_sign[i, 1]
+                gx0 += sg * work_lf[m, 0]      # left + right (commutative)
+                gy0 += sg * work_lf[m, 1]
+                gz0 += sg * work_lf[m, 2]
+            m = node_links[i, 2]
+            if m >= 0:
+                sg = node_link_sign[i, 2]
+                gx1 = sg * work_lf[m, 0]
+                gy1 = sg * work_lf[m, 1]
+                gz1 = sg * work_lf[m, 2]
+            m = node_links[i, 3]
+            if m >= 0:
+                sg = node_link_sign[i, 3]
+                gx1 += sg * work_lf[m, 0]      # down + up
+                gy1 += sg * work_lf[m, 1]
+                gz1 += sg * work_lf[m, 2]
+            m = node_links[i, 4]
+            if m >= 0:
+                sg = node_link_sign[i, 4]
+                gx2 = sg * work_lf[m, 0]
+                gy2 = sg * work_lf[m, 1]
+                gz2 = sg * work_lf[m, 2]
+            m = node_links[i, 5]
+            if m >= 0:
+                sg = node_link_sign[i, 5]
+                gx2 += sg * work_lf[m, 0]      # the two others
+                gy2 += sg * work_lf[m, 1]
+                gz2 += sg * work_lf[m, 2]
+            work_f[i, 0] = (gx0 + gx1) + gx2
+            work_f[i, 1] = (gy0 + gy1) + gy2
+            work_f[i, 2] = (gz0 + gz1) + gz2
+        # ---- 3. drawstring closing force ---------------------------------------------
         if ev[E_CLOSING_ACTIVE] == 1:
             for p in range(n_pairs):
                 a = ring_pairs[p, 0]
@@ -315,24 +313,95 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                 dz = x[b, 2] - x[a, 2]
                 d = np.sqrt(dx * dx + dy * dy + dz * dz)
                 if d > 1e-12:
-                    s = close_force * dt / d
-                    corr[a, 0] += s * dx
-                    corr[a, 1] += s * dy
-                    corr[a, 2] += s * dz
-                    corr[b, 0] -= s * dx
-                    corr[b, 1] -= s * dy
-                    corr[b, 2] -= s * dz
-            # summed per node before use, so the result is independent of pair order
+                    s_ = close_force / d
+                    pair_f[p, 0] = s_ * dx
+                    pair_f[p, 1] = s_ * dy
+                    pair_f[p, 2] = s_ * dz
+                else:
+                    pair_f[p, 0] = 0.0
+                    pair_f[p, 1] = 0.0
+                    pair_f[p, 2] = 0.0
+            # a ring node is in two pairs: sum both (commutative) before adding
+            for p in range(n_pairs):
+                for c in range(3):
+                    lock_corr[ring_pairs[p, 0], c] += pair_f[p, c]
+                    lock_corr[ring_pairs[p, 1], c] -= pair_f[p, c]
             for p in range(n_pairs):
                 for e in range(2):
                     a = ring_pairs[p, e]
                     for c in range(3):
-                        v[a, c] += w[a] * corr[a, c]
-                        corr[a, c] = 0.0
-        # ---- 2. prediction ----------------------------------------------------------
+                        work_f[a, c] += lock_corr[a, c]
+                        lock_corr[a, c] = 0.0
+        # ---- 4. contact with the target ----------------------------------------------
+        n_contacts = 0
+        fx_t = 0.0
+        fy_t = 0.0
+        fz_t = 0.0
+        tx_t = 0.0
+        ty_t = 0.0
+        tz_t = 0.0
         for i in range(n_bodies):
+            if contact_mask[i] == 0 or w[i] == 0.0:
+                continue
+            rx = x[i, 0] - tgt_pos[0]
+            ry = x[i, 1] - tgt_pos[1]
+            rz = x[i, 2] - tgt_pos[2]
+            rb = bound + radius[i]
+            if rx * rx + ry * ry + rz * rz > rb * rb:
+                continue
+            bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
+            by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
+            bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
+            sd, nbx, nby, nbz = _local_sdf(bx, by, bz, cyl, verts, offsets)
+            delta = radius[i] - sd
+            if delta <= 0.0:
+                continue
+            if delta > max_penetration[0]:
+                max_penetration[0] = delta
+            nx = R[0, 0] * nbx + R[0, 1] * nby + R[0, 2] * nbz
+            ny = R[1, 0] * nbx + R[1, 1] * nby + R[1, 2] * nbz
+            nz = R[2, 0] * nbx + R[2, 1] * nby + R[2, 2] * nbz
+            # velocity relative to the target's material point at the body
+            vrx = v[i, 0] - (tgt_vel[0] + oy * rz - oz * ry)
+            vry = v[i, 1] - (tgt_vel[1] + oz * rx - ox * rz)
+            vrz = v[i, 2] - (tgt_vel[2] + ox * ry - oy * rx)
+            vn = vrx * nx + vry * ny + vrz * nz
+            Fn = mass[i] * (k_c_unit * delta - c_c_unit * vn)
+            if Fn <= 0.0:  # a contact never pulls
+                continue
+            n_contacts += 1
+            fx = Fn * nx
+            fy = Fn * ny
+            fz = Fn * nz
+            tvx = vrx - vn * nx
+            tvy = vry - vn * ny
+            tvz = vrz - vn * nz
+            vt = np.sqrt(tvx * tvx + tvy * tvy + tvz * tvz)
+            if vt > 1e-12 and mu > 0.0:
+                Ft = mu * Fn
+                stop = mass[i] * vt / dt
+                if stop < Ft:
+                    Ft = stop
+                fx -= Ft * tvx / vt
+                fy -= Ft * tvy / vt
+                fz -= Ft * tvz / vt
+            work_f[i, 0] += fx
+            work_f[i, 1] += fy
+            work_f[i, 2] += fz
+            # equal and opposite on the target, acting at the body's centre
+            fx_t -= fx
+            fy_t -= fy
+            fz_t -= fz
+            tx_t -= ry * fz - rz * fy
+            ty_t -= rz * fx - rx * fz
+            tz_t -= rx * fy - ry * fx
+        contact_count[0] += n_contacts
+        # ---- 5. integrate bodies (symplectic Euler) ----------------------------------
+        for i in range(n_bodies):
+            if w[i] == 0.0:
+                continue
             for c in range(3):
-                work_xp[i, c] = x[i, c]
+                v[i, c] += dt * w[i] * work_f[i, c]
                 x[i, c] += dt * v[i, c]
         if ev[E_TETHER_LOCKED] == 0:
             # the winch pays out freely: the deployed tether lies straight and slack
@@ -341,11 +410,30 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                 t = tether_nodes[k]
                 for c in range(3):
                     x[t, c] = x[winch_body, c] + f * (x[centre_node, c] - x[winch_body, c])
-        # target pose
+                    v[t, c] = v[winch_body, c] + f * (v[centre_node, c] - v[winch_body, c])
+        # ---- 6. integrate the target (free rigid body) -------------------------------
+        tgt_vel[0] += dt * tgt_w * fx_t
+        tgt_vel[1] += dt * tgt_w * fy_t
+        tgt_vel[2] += dt * tgt_w * fz_t
+        # Euler's equations in the body frame: I dw/dt = tau - w x I w
+        tbx = R[0, 0] * tx_t + R[1, 0] * ty_t + R[2, 0] * tz_t
+        tby = R[0, 1] * tx_t + R[1, 1] * ty_t + R[2, 1] * tz_t
+        tbz = R[0, 2] * tx_t + R[1, 2] * ty_t + R[2, 2] * tz_t
+        wbx = R[0, 0] * ox + R[1, 0] * oy + R[2, 0] * oz
+        wby = R[0, 1] * ox + R[1, 1] * oy + R[2, 1] * oz
+        wbz = R[0, 2] * ox + R[1, 2] * oy + R[2, 2] * oz
+        nwx = wbx + dt * inv_i[0] * (tbx + (tgt_inertia[1] - tgt_inertia[2]) * wby * wbz)
+        nwy = wby + dt * inv_i[1] * (tby + (tgt_inertia[2] - tgt_inertia[0]) * wbz * wbx)
+        nwz = wbz + dt * inv_i[2] * (tbz + (tgt_inertia[0] - tgt_inertia[1]) * wbx * wby)
+        ox = R[0, 0] * nwx + R[0, 1] * nwy + R[0, 2] * nwz
+        oy = R[1, 0] * nwx + R[1, 1] * nwy + R[1, 2] * nwz
+        oz = R[2, 0] * nwx + R[2, 1] * nwy + R[2, 2] * nwz
+        tgt_omega[0] = ox
+        tgt_omega[1] = oy
+        tgt_omega[2] = oz
         for c in range(3):
             tgt_pos[c] += dt * tgt_vel[c]
         q0, q1, q2, q3 = tgt_quat[0], tgt_quat[1], tgt_quat[2], tgt_quat[3]
-        ox, oy, oz = tgt_omega[0], tgt_omega[1], tgt_omega[2]
         h = 0.5 * dt
         n0 = q0 + h * (-ox * q1 - oy * q2 - oz * q3)
         n1 = q1 + h * (ox * q0 + oy * q3 - oz * q2)
@@ -356,129 +444,9 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         tgt_quat[1] = n1 / qn
         tgt_quat[2] = n2 / qn
         tgt_quat[3] = n3 / qn
-        quat_to_matrix_into(tgt_quat, R)
-        # ---- 3. constraints: threads, tether, locks ------------------------------------
-        for g in range(link_groups.shape[0] - 1):
-            _solve_group(x, work_xp, w, links, link_groups[g], link_groups[g + 1], link_rest,
-                         link_gamma, link_inv_den, link_active, False, link_relax[g],
-                         link_dl, link_dn, corr)
-        _solve_group(x, work_xp, w, ring_pairs, 0, n_pairs, pair_maxdist, pair_zero,
-                     pair_zero, pair_locked, True, 0.5, pair_dl, pair_dn, corr)
-        # ---- 4. contacts with the target (compliant, never pulling) --------------------
-        n_contacts = 0
-        jx = 0.0
-        jy = 0.0
-        jz = 0.0
-        lx_ = 0.0
-        ly_ = 0.0
-        lz_ = 0.0
-        for i in range(n_bodies):
-            if contact_mask[i] == 0 or w[i] == 0.0:
-                continue
-            rx = x[i, 0] - tgt_pos[0]
-            ry = x[i, 1] - tgt_pos[1]
-            rz = x[i, 2] - tgt_pos[2]
-            rb = bound + radius[i]
-            if rx * rx + ry * ry + rz * rz > rb * rb:
-                continue
-            # to the body frame: R^T r
-            bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
-            by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
-            bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
-            sd, nbx, nby, nbz = _local_sdf(bx, by, bz, cyl, verts, offsets)
-            C = sd - radius[i]
-            if C >= 0.0:
-                continue
-            if -C > max_penetration[0]:
-                max_penetration[0] = -C
-            nx = R[0, 0] * nbx + R[0, 1] * nby + R[0, 2] * nbz
-            ny = R[1, 0] * nbx + R[1, 1] * nby + R[1, 2] * nbz
-            nz = R[2, 0] * nbx + R[2, 1] * nby + R[2, 2] * nbz
-            # displacement of the body relative to the target's surface point this step
-            svx = tgt_vel[0] + oy * rz - oz * ry
-            svy = tgt_vel[1] + oz * rx - ox * rz
-            svz = tgt_vel[2] + ox * ry - oy * rx
-            rel = (nx * (x[i, 0] - work_xp[i, 0] - dt * svx)
-                   + ny * (x[i, 1] - work_xp[i, 1] - dt * svy)
-                   + nz * (x[i, 2] - work_xp[i, 2] - dt * svz))
-            dlam = (-C - body_gamma[i] * rel) * body_inv_den[i]
-            if dlam <= 0.0:  # a contact never pulls
-                continue
-            x[i, 0] += w[i] * dlam * nx
-            x[i, 1] += w[i] * dlam * ny
-            x[i, 2] += w[i] * dlam * nz
-            jn = dlam / dt  # normal impulse on the body (N s)
-            work_cb[n_contacts] = i
-            work_cn[n_contacts, 0] = nx
-            work_cn[n_contacts, 1] = ny
-            work_cn[n_contacts, 2] = nz
-            work_cj[n_contacts] = jn
-            n_contacts += 1
-        contact_count[0] += n_contacts
-        # ---- 5. velocities -------------------------------------------------------------
-        for i in range(n_bodies):
-            for c in range(3):
-                v[i, c] = (x[i, c] - work_xp[i, c]) / dt
-        # ---- 6. Coulomb friction (velocity projection) and impulses on the target -----
-        for k in range(n_contacts):
-            i = work_cb[k]
-            nx = work_cn[k, 0]
-            ny = work_cn[k, 1]
-            nz = work_cn[k, 2]
-            jn = work_cj[k]
-            rx = x[i, 0] - tgt_pos[0]
-            ry = x[i, 1] - tgt_pos[1]
-            rz = x[i, 2] - tgt_pos[2]
-            svx = tgt_vel[0] + oy * rz - oz * ry
-            svy = tgt_vel[1] + oz * rx - ox * rz
-            svz = tgt_vel[2] + ox * ry - oy * rx
-            vrx = v[i, 0] - svx
-            vry = v[i, 1] - svy
-            vrz = v[i, 2] - svz
-            vn = vrx * nx + vry * ny + vrz * nz
-            tx = vrx - vn * nx
-            ty = vry - vn * ny
-            tz = vrz - vn * nz
-            vt = np.sqrt(tx * tx + ty * ty + tz * tz)
-            # impulse on the body: normal jn n, friction -min(mu jn, m |v_t|) t_hat
-            fx = jn * nx
-            fy = jn * ny
-            fz = jn * nz
-            if vt > 1e-12 and mu > 0.0:
-                dv = mu * jn * w[i]
-                if dv > vt:
-                    dv = vt
-                v[i, 0] -= dv * tx / vt
-                v[i, 1] -= dv * ty / vt
-                v[i, 2] -= dv * tz / vt
-                fm = dv * mass[i] / vt
-                fx -= fm * tx
-                fy -= fm * ty
-                fz -= fm * tz
-            # equal and opposite impulse on the target, acting at the body's centre
-            jx -= fx
-            jy -= fy
-            jz -= fz
-            lx_ -= ry * fz - rz * fy
-            ly_ -= rz * fx - rx * fz
-            lz_ -= rx * fy - ry * fx
-        # ---- 7. target velocities: impulses, then torque-free Euler equations ----------
-        tgt_vel[0] += tgt_w * jx
-        tgt_vel[1] += tgt_w * jy
-        tgt_vel[2] += tgt_w * jz
-        # angular momentum change in the body frame
-        Lbx = R[0, 0] * lx_ + R[1, 0] * ly_ + R[2, 0] * lz_
-        Lby = R[0, 1] * lx_ + R[1, 1] * ly_ + R[2, 1] * lz_
-        Lbz = R[0, 2] * lx_ + R[1, 2] * ly_ + R[2, 2] * lz_
-        wbx = R[0, 0] * ox + R[1, 0] * oy + R[2, 0] * oz
-        wby = R[0, 1] * ox + R[1, 1] * oy + R[2, 1] * oz
-        wbz = R[0, 2] * ox + R[1, 2] * oy + R[2, 2] * oz
-        wbx += Lbx * inv_i[0] + dt * inv_i[0] * (tgt_inertia[1] - tgt_inertia[2]) * wby * wbz
-        wby += Lby * inv_i[1] + dt * inv_i[1] * (tgt_inertia[2] - tgt_inertia[0]) * wbz * wbx
-        wbz += Lbz * inv_i[2] + dt * inv_i[2] * (tgt_inertia[0] - tgt_inertia[1]) * wbx * wby
-        tgt_omega[0] = R[0, 0] * wbx + R[0, 1] * wby + R[0, 2] * wbz
-        tgt_omega[1] = R[1, 0] * wbx + R[1, 1] * wby + R[1, 2] * wbz
-        tgt_omega[2] = R[2, 0] * wbx + R[2, 1] * wby + R[2, 2] * wbz
+        # ---- 7. drawstring locks: one-sided distance joints (ratchet) ---------------
+        if ev[E_CLOSING_ACTIVE] == 1:
+            _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, lock_corr, lock_count)
 
         ev[E_STEP] += 1
         # ---- 8. events: closing trigger, tether lock, drawstring locks -----------------
@@ -491,39 +459,9 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                 ev[E_CLOSING_ACTIVE] = 1
                 ev[E_CLOSING_STEP] = ev[E_STEP]
                 if ev[E_TETHER_LOCKED] == 0:
-                    # the winch locks the paid-out length; the tether's mass joins in
-                    # (the winch end is the chaser, the other the net's centre node)
+                    _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c,
+                                 link_active, tether_nodes, tether_links, prm)
                     ev[E_TETHER_LOCKED] = 1
-                    for k in range(tether_links.shape[0]):
-                        m = tether_links[k]
-                        a = links[m, 0]
-                        b = links[m, 1]
-                        dx = x[b, 0] - x[a, 0]
-                        dy = x[b, 1] - x[a, 1]
-                        dz = x[b, 2] - x[a, 2]
-                        link_rest[m] = np.sqrt(dx * dx + dy * dy + dz * dz)
-                        link_active[m] = 1
-                    for k in range(n_tether):
-                        # each lumped mass carries one segment of tether
-                        t = tether_nodes[k]
-                        mass[t] = prm[P_TETHER_LIN_DENSITY] * link_rest[tether_links[0]]
-                        w[t] = 1.0 / mass[t]
-                        contact_mask[t] = 1
-                    for k in range(tether_links.shape[0]):
-                        # spring-damper constants of the segment, now that its length is known
-                        m = tether_links[k]
-                        a = links[m, 0]
-                        b = links[m, 1]
-                        kk = prm[P_TETHER_EA] / link_rest[m]
-                        link_compliance[m] = 1.0 / kk
-                        meff = mass[a] * mass[b] / (mass[a] + mass[b])
-                        link_damping[m] = 2.0 * prm[P_ZETA_THREAD] * np.sqrt(kk * meff)
-                    _link_factors(links, link_compliance, link_damping, w, dt, link_gamma, link_inv_den)
-                    for k in range(n_tether):
-                        t = tether_nodes[k]
-                        cc = 2.0 * prm[P_ZETA_CONTACT] * np.sqrt(kc * mass[t])
-                        body_gamma[t] = cc / (kc * dt)
-                        body_inv_den[t] = 1.0 / ((1.0 + body_gamma[t]) * w[t] + at_c)
         if ev[E_CLOSING_ACTIVE] == 1:
             for p in range(n_pairs):
                 a = ring_pairs[p, 0]
@@ -540,3 +478,107 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                 elif d < pair_maxdist[p]:
                     pair_maxdist[p] = d
     return 0
+
+
+@njit(cache=True, error_model='numpy')
+def _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
+    """Hold every locked pair within its maximum distance: positions are projected along
+    the pair (mass-weighted, so momentum is kept) and the separating relative velocity is
+    removed.  A node in two locked pairs takes the mean of both corrections (Jacobi with
+    mass splitting, order-independent); LOCK_PASSES passes per step."""
+    n_pairs = ring_pairs.shape[0]
+    for _ in range(LOCK_PASSES):
+        any_active = False
+        for p in range(n_pairs):
+            if pair_locked[p] == 1:
+                count[ring_pairs[p, 0]] += 1.0
+                count[ring_pairs[p, 1]] += 1.0
+        for p in range(n_pairs):
+            if pair_locked[p] == 0:
+                continue
+            a = ring_pairs[p, 0]
+            b = ring_pairs[p, 1]
+            dx = x[b, 0] - x[a, 0]
+            dy = x[b, 1] - x[a, 1]
+            dz = x[b, 2] - x[a, 2]
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            C = d - pair_maxdist[p]
+            wsum = w[a] + w[b]
+            if C <= 0.0 or d < 1e-14 or wsum == 0.0:
+                continue
+            any_active = True
+            nx = dx / d
+            ny = dy / d
+            nz = dz / d
+            s = C / wsum
+            corr[a, 0] += w[a] * s * nx
+            corr[a, 1] += w[a] * s * ny
+            corr[a, 2] += w[a] * s * nz
+            corr[b, 0] -= w[b] * s * nx
+            corr[b, 1] -= w[b] * s * ny
+            corr[b, 2] -= w[b] * s * nz
+        for p in range(n_pairs):
+            for e in range(2):
+                a = ring_pairs[p, e]
+                if count[a] > 0.0:
+                    for c in range(3):
+                        x[a, c] += corr[a, c] / count[a]
+                        corr[a, c] = 0.0
+                    count[a] = 0.0
+        if not any_active:
+            break
+    # velocities: no separating relative velocity along a pair at its limit
+    for p in range(n_pairs):
+        if pair_locked[p] == 0:
+            continue
+        a = ring_pairs[p, 0]
+        b = ring_pairs[p, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        d = np.sqrt(dx * dx + dy * dy + dz * dz)
+        wsum = w[a] + w[b]
+        if d < 1e-14 or wsum == 0.0 or d < pair_maxdist[p] * (1.0 - 1e-9):
+            continue
+        nx = dx / d
+        ny = dy / d
+        nz = dz / d
+        vsep = nx * (v[b, 0] - v[a, 0]) + ny * (v[b, 1] - v[a, 1]) + nz * (v[b, 2] - v[a, 2])
+        if vsep > 0.0:
+            s = vsep / wsum
+            v[a, 0] += w[a] * s * nx
+            v[a, 1] += w[a] * s * ny
+            v[a, 2] += w[a] * s * nz
+            v[b, 0] -= w[b] * s * nx
+            v[b, 1] -= w[b] * s * ny
+            v[b, 2] -= w[b] * s * nz
+
+
+@njit(cache=True, error_model='numpy')
+def _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c, link_active,
+                 tether_nodes, tether_links, prm):
+    """The winch locks the paid-out length: the tether segments get their rest lengths
+    (the current ones), stiffness E A / l and damping, and the tether's lumped masses
+    (one segment of tether each) join the dynamics."""
+    for k in range(tether_links.shape[0]):
+        m = tether_links[k]
+        a = links[m, 0]
+        b = links[m, 1]
+        dx = x[b, 0] - x[a, 0]
+        dy = x[b, 1] - x[a, 1]
+        dz = x[b, 2] - x[a, 2]
+        link_rest[m] = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
+        link_active[m] = 1
+    for k in range(tether_nodes.shape[0]):
+        t = tether_nodes[k]
+        mass[t] = prm[P_TETHER_LIN_DENSITY] * link_rest[tether_links[0]]
+        w[t] = 1.0 / mass[t]
+        contact_mask[t] = 1
+    for k in range(tether_links.shape[0]):
+        m = tether_links[k]
+        a = links[m, 0]
+        b = links[m, 1]
+        kk = prm[P_TETHER_EA] / link_rest[m]
+        link_k[m] = kk
+        meff = mass[a] * mass[b] / (mass[a] + mass[b])
+        link_c[m] = 2.0 * prm[P_ZETA_THREAD] * np.sqrt(kk * meff)

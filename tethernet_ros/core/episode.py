@@ -29,12 +29,10 @@ class CaptureSimulation:
     def __init__(self, scenario: Scenario):
         self.s = scenario
         self.cfg = scenario.config
-        self.dt = self.cfg.dt
+        self.dt = scenario.dt
         nb = scenario.n_bodies
-        self._xp = np.zeros((nb, 3))
-        self._cn = np.zeros((nb, 3))
-        self._cj = np.zeros(nb)
-        self._cb = np.zeros(nb, dtype=np.int64)
+        self._lf = np.zeros((scenario.links.shape[0], 3))
+        self._f = np.zeros((nb, 3))
         self.contact_count = np.zeros(1, dtype=np.int64)
         self.max_penetration = np.zeros(1)
         self.net_masses = scenario.mass[scenario.net_nodes].copy()
@@ -78,12 +76,13 @@ class CaptureSimulation:
             return
         s = self.s
         dyn.advance(n_steps, s.x, s.v, s.w, s.mass, s.radius, s.contact_mask,
-                    s.links, s.link_groups, s.link_relax, s.link_rest, s.link_compliance, s.link_damping, s.link_active,
+                    s.links, s.link_rest, s.link_k, s.link_c, s.link_active, s.node_links,
+                    s.node_link_sign,
                     s.net_nodes, s.ring_pairs, s.pair_locked, s.pair_maxdist, s.pair_lock_step,
                     s.tether_nodes, s.tether_links, s.centre_node, s.winch_body,
                     s.tgt_pos, s.tgt_quat, s.tgt_vel, s.tgt_omega, s.tgt_inertia, s.cyl, s.verts,
                     s.offsets, s.prm, s.ev, self.contact_count, self.max_penetration,
-                    self._xp, self._cn, self._cj, self._cb)
+                    self._lf, self._f)
 
     def divergence(self) -> str:
         """'' if the state is sound, else why the simulation diverged."""
@@ -135,7 +134,7 @@ class CaptureSimulation:
         a, b = s.links[act, 0], s.links[act, 1]
         stretch = np.linalg.norm(s.x[b] - s.x[a], axis=1) - s.link_rest[act]
         stretch = np.maximum(stretch, 0.0)
-        return float((0.5 * stretch**2 / s.link_compliance[act]).sum())
+        return float((0.5 * s.link_k[act] * stretch**2).sum())
 
 
 @dataclass
@@ -191,8 +190,8 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
     without closing, or divergence.  ``observer(sim)`` is called at every metric sample."""
     cfg = sim.cfg
     t0 = time.perf_counter()
-    metric_every = int(round(1.0 / (cfg.metric_rate * cfg.dt)))
-    state_every = int(round(1.0 / (cfg.state_rate * cfg.dt))) if cfg.state_rate > 0 else 0
+    metric_every = int(round(1.0 / (cfg.metric_rate * sim.dt)))
+    state_every = max(1, int(round(1.0 / (cfg.state_rate * sim.dt)))) if cfg.state_rate > 0 else 0
     trace = EpisodeTrace() if record_trace else None
     reason = ""
 
@@ -201,7 +200,7 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
             return
         if trace is not None and step % metric_every == 0:
             terms = sim.cqi()
-            trace.time.append(step * cfg.dt)
+            trace.time.append(step * sim.dt)
             trace.cqi.append(terms.cqi)
             trace.volume_term.append(terms.volume_term)
             trace.area_term.append(terms.area_term)
@@ -209,7 +208,7 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
             trace.locked_pairs.append(sim.locked_pairs)
             trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.tgt_pos[2]))
         if trace is not None and state_every and step % state_every == 0:
-            trace.state_time.append(step * cfg.dt)
+            trace.state_time.append(step * sim.dt)
             trace.positions.append(sim.s.x.copy())
             trace.target_pose.append([*sim.s.tgt_pos, *sim.s.tgt_quat])
         if observer is not None and step % metric_every == 0:

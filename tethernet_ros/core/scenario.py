@@ -19,10 +19,7 @@ from .design import Design
 from .noise import CORNER_SIGNS, NoiseSample, corner_velocities
 from .target import Target
 from . import dynamics as dyn
-
-
-#: relaxation of a link group whose links share a body (two links per shared body)
-RELAX_SHARED = 0.5
+from .dynamics import N_SLOTS
 
 
 @dataclass(frozen=True)
@@ -109,12 +106,14 @@ class Scenario:
     radius: np.ndarray
     contact_mask: np.ndarray
     links: np.ndarray
-    link_groups: np.ndarray
-    link_relax: np.ndarray
     link_rest: np.ndarray
-    link_compliance: np.ndarray
-    link_damping: np.ndarray
+    link_k: np.ndarray
+    link_c: np.ndarray
     link_active: np.ndarray
+    node_links: np.ndarray
+    node_link_sign: np.ndarray
+    dt: float
+    stable_step: float
     net_nodes: np.ndarray
     ring_pairs: np.ndarray
     pair_locked: np.ndarray
@@ -185,27 +184,24 @@ def build_scenario(design: Design, actions: Actions, world: World,
         for j in range(n):
             x[grid_index(i, j, n)] = [(j - meshes / 2) * s, (i - meshes / 2) * s, 0.0]
 
-    # Grid threads in groups projected together (dynamics._solve_group).  x-threads
-    # (i, j)-(i, j+1) are grouped by j into classes closed under the mirror j -> 14 - j + 1
-    # that share no node, plus the two centre threads that meet at the centre column;
-    # y-threads likewise by i.  So each pass is the same under x and y mirroring.
-    links, groups, relax = [], [0], []
-    half = meshes // 2
-    classes = [[j for j in range(meshes) if min(j, meshes - 1 - j) % 2 == par
-                and min(j, meshes - 1 - j) < half - 1] for par in (0, 1)]
-    classes.append([half - 1, half])
-    for cls in classes:
-        for i in range(n):
-            for j in cls:
-                links.append((grid_index(i, j, n), grid_index(i, j + 1, n)))
-        groups.append(len(links))
-        relax.append(RELAX_SHARED if len(cls) == 2 else 1.0)
-    for cls in classes:
-        for i in cls:
-            for j in range(n):
-                links.append((grid_index(i, j, n), grid_index(i + 1, j, n)))
-        groups.append(len(links))
-        relax.append(RELAX_SHARED if len(cls) == 2 else 1.0)
+    # grid threads; slots of each node's threads: left (-x), right (+x), down (-y), up (+y)
+    links = []
+    slots = np.full((nb, N_SLOTS), -1, dtype=np.int64)
+    signs = np.zeros((nb, N_SLOTS))
+
+    def add_link(a, b, slot_a, slot_b):
+        links.append((a, b))
+        m = len(links) - 1
+        slots[a, slot_a], signs[a, slot_a] = m, 1.0    # force on the first end: +F n
+        slots[b, slot_b], signs[b, slot_b] = m, -1.0
+        return m
+
+    for i in range(n):
+        for j in range(n - 1):
+            add_link(grid_index(i, j, n), grid_index(i, j + 1, n), 1, 0)
+    for i in range(n - 1):
+        for j in range(n):
+            add_link(grid_index(i, j, n), grid_index(i + 1, j, n), 3, 2)
     rest = [l0] * len(links)
     # lumped thread mass: half of each grid thread to each end node
     for a, b in links:
@@ -227,22 +223,18 @@ def build_scenario(design: Design, actions: Actions, world: World,
         mass[body] = design.m_c + 0.5 * lin_density * lc
         mass[node] += 0.5 * lin_density * lc
         radius[body] = cfg.corner_mass_radius
-        links.append((node, body))
+        add_link(node, body, 4, 0)
         rest.append(lc)
-    groups.append(len(links))
-    relax.append(1.0)
     n_net_links = len(links)
 
     # main tether: net centre -> lumped masses -> winch on the chaser
     centre = grid_index(n // 2, n // 2, n)
     chain = [centre] + list(range(i_tether0, i_tether0 + n_tether)) + [i_chaser]
     tether_links = []
-    for a, b in zip(chain[:-1], chain[1:]):
-        tether_links.append(len(links))
-        links.append((a, b))
+    for q, (a, b) in enumerate(zip(chain[:-1], chain[1:])):
+        # the centre node's tether slot is 5; along the chain: 0 toward the net, 1 away
+        tether_links.append(add_link(a, b, 5 if q == 0 else 1, 0))
         rest.append(0.0)  # set when the winch locks
-        groups.append(len(links))
-        relax.append(1.0)
     # placeholder masses (set when the winch locks; kinematic until then)
     mass[i_tether0:i_chaser] = lin_density * 1.0
     contact[i_tether0:i_chaser] = 0
@@ -254,27 +246,28 @@ def build_scenario(design: Design, actions: Actions, world: World,
     rest = np.array(rest, dtype=float)
     k = np.zeros(len(links))
     k[:n_net_links] = EA / rest[:n_net_links]
-    compliance = np.zeros(len(links))
-    compliance[:n_net_links] = 1.0 / k[:n_net_links]
     ma, mb = mass[links[:, 0]], mass[links[:, 1]]
-    damping = 2.0 * cfg.damping_ratio * np.sqrt(k * ma * mb / (ma + mb))
+    m_eff = (ma * mb) / (ma + mb)          # symmetric in the two ends, to the last bit
+    damping = 2.0 * cfg.damping_ratio * np.sqrt(k * m_eff)
     active = np.zeros(len(links), dtype=np.uint8)
     active[:n_net_links] = 1
 
     w = 1.0 / mass
     w[i_tether0:i_chaser] = 0.0  # kinematic while the winch pays out
+    _, stable = dyn.stable_step(links, k, active, w, nb)
+    dt = cfg.step_for(stable)
 
     ring_pairs = np.array([(ring[q], ring[(q + 1) % len(ring)]) for q in range(len(ring))], dtype=np.int64)
 
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
     prm = np.zeros(dyn.N_PRM)
-    prm[dyn.P_DT] = cfg.dt
+    prm[dyn.P_DT] = dt
     prm[dyn.P_CLOSE_FORCE] = cfg.closing_force_factor * design.m_c * design.L_n
     prm[dyn.P_CLOSE_THRESHOLD] = actions.closing_displacement
     prm[dyn.P_LOCK_DIST] = cfg.lock_distance
     prm[dyn.P_MU] = cfg.friction
-    prm[dyn.P_K_CONTACT] = cfg.contact_stiffness
+    prm[dyn.P_OMEGA_CONTACT] = cfg.contact_frequency
     prm[dyn.P_ZETA_CONTACT] = cfg.contact_damping_ratio
     prm[dyn.P_TGT_INV_MASS] = 1.0 / cfg.target.mass
     prm[dyn.P_TGT_BOUND] = target.bounding_radius
@@ -287,9 +280,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     return Scenario(
         design=design, config=cfg, target=target, x=x, v=v, w=w, mass=mass, radius=radius,
-        contact_mask=contact, links=links, link_groups=np.array(groups, dtype=np.int64),
-        link_relax=np.array(relax), link_rest=rest, link_compliance=compliance,
-        link_damping=damping, link_active=active, net_nodes=np.arange(n_net, dtype=np.int64),
+        contact_mask=contact, links=links, link_rest=rest, link_k=k, link_c=damping,
+        link_active=active, node_links=slots, node_link_sign=signs, dt=dt, stable_step=stable, net_nodes=np.arange(n_net, dtype=np.int64),
         ring_pairs=ring_pairs, pair_locked=np.zeros(len(ring_pairs), dtype=np.uint8),
         pair_maxdist=np.zeros(len(ring_pairs)), pair_lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
         tether_nodes=np.arange(i_tether0, i_chaser, dtype=np.int64),
