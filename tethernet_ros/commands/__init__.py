@@ -1,0 +1,1 @@
+"""Subcommands of the `tethernet` CLI (see tethernet_ros.cli)."""

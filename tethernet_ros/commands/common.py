@@ -1,0 +1,57 @@
+"""Arguments and helpers shared by several commands."""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from ..core.design import Design, load_design
+from ..core.noise import NOISE_SOURCES, NoiseModel
+
+
+def add_design_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--design", required=True, metavar="NAME|FILE.yaml",
+                   help="reference design (baseline, suboptimal, mass-min, time-min) or a YAML "
+                        "file with keys m_c, L_n, r_n, d_L, V_e, d_c")
+
+
+def add_noise_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--noise-scale", action="append", default=[], metavar="SOURCE=FACTOR",
+                   help=f"multiply one noise source's spread; sources: {', '.join(NOISE_SOURCES)} "
+                        "(repeatable)")
+    p.add_argument("--orientation-axis", choices=("z", "y"), default="z",
+                   help="axis of the target-orientation noise (default z, the line of sight)")
+
+
+def design_from_args(args) -> Design:
+    return load_design(args.design)
+
+
+def noise_model_from_args(args) -> NoiseModel:
+    from ..cli import UserError
+
+    scales = {}
+    for item in args.noise_scale:
+        if "=" not in item:
+            raise UserError(f"--noise-scale {item!r}: expected SOURCE=FACTOR, sources {list(NOISE_SOURCES)}")
+        k, v = item.split("=", 1)
+        try:
+            scales[k.strip()] = float(v)
+        except ValueError:
+            raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in [0, 100]") from None
+    return NoiseModel(orientation_axis=args.orientation_axis, scales=scales)
+
+
+def json_clean(obj):
+    """Replace non-finite floats by None so that the output is strict JSON."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: json_clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_clean(v) for v in obj]
+    return obj
+
+
+def print_json(obj) -> None:
+    print(json.dumps(json_clean(obj), indent=2, sort_keys=False))

@@ -1,0 +1,4 @@
+"""PNG figures (matplotlib, Agg backend): one module per figure family."""
+import matplotlib
+
+matplotlib.use("Agg")
