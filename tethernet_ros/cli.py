@@ -10,12 +10,10 @@ import argparse
 import importlib
 import sys
 
+from .errors import UserError
+
 #: command modules, in the order ``tethernet --help`` lists them
 COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize")
-
-
-class UserError(Exception):
-    """An error in what the user asked for; printed as one line, exit status 2."""
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:

@@ -4,10 +4,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from ..core.config import SimConfig
 from ..core.episode import run_episode
-from .common import (add_design_argument, add_noise_arguments, design_from_args,
-                     noise_model_from_args, print_json)
+from .common import (add_config_argument, add_design_argument, add_noise_arguments,
+                     config_from_args, design_from_args, noise_model_from_args, print_json)
 
 NAME = "capture"
 HELP = "simulate one capture of a design (nominal or one noise sample)"
@@ -20,6 +19,7 @@ def add_arguments(p):
                    help="noise sample seed (an integer >= 0); default: nominal")
     g.add_argument("--nominal", action="store_true", help="no noise (the default)")
     add_noise_arguments(p)
+    add_config_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--via", choices=("library", "ros"), default="library",
                    help="run in-process (default) or through the ROS 2 node suite")
@@ -32,14 +32,14 @@ def add_arguments(p):
 
 
 def run(args) -> int:
-    from ..cli import UserError
+    from ..errors import UserError
 
     design = design_from_args(args)
     model = noise_model_from_args(args)
     if args.seed is not None and args.seed < 0:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
     sample = None if args.seed is None else model.sample(args.seed)
-    config = SimConfig(state_rate=args.state_rate)
+    config = config_from_args(args, **({"state_rate": args.state_rate} if args.state_rate else {}))
     t0 = time.perf_counter()
     bag_path = None
     if args.via == "ros":

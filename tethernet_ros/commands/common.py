@@ -23,12 +23,44 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
                    help="axis of the target-orientation noise (default z, the line of sight)")
 
 
+def add_config_argument(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", default=None, metavar="FILE.yaml",
+                   help="simulation settings overriding the SPEC defaults (SimConfig fields, "
+                        "e.g. settle_time: 20.0, dt_safety: 0.5, target: {nozzle: true})")
+
+
+def config_from_args(args, **overrides):
+    """SimConfig from --config (if given) with ``overrides`` applied on top."""
+    from ..errors import UserError
+    from ..core.config import ConfigError, SimConfig
+
+    data = {}
+    if getattr(args, "config", None):
+        import yaml
+        from pathlib import Path
+
+        path = Path(args.config)
+        if not path.is_file():
+            raise UserError(f"--config: file {str(path)!r} does not exist")
+        try:
+            data = yaml.safe_load(path.read_text()) or {}
+        except yaml.YAMLError:
+            raise UserError(f"--config: file {str(path)!r} is not valid YAML") from None
+        if not isinstance(data, dict):
+            raise UserError(f"--config: file {str(path)!r} must hold a mapping of SimConfig fields")
+    data.update(overrides)
+    try:
+        return SimConfig.from_dict(data)
+    except TypeError as exc:
+        raise ConfigError(f"config: {exc}") from None
+
+
 def design_from_args(args) -> Design:
     return load_design(args.design)
 
 
 def noise_model_from_args(args) -> NoiseModel:
-    from ..cli import UserError
+    from ..errors import UserError
 
     scales = {}
     for item in args.noise_scale:

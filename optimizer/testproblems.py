@@ -1,0 +1,211 @@
+"""Standard constrained Bayesian-optimisation test problems with known optima.
+
+Every problem uses the optimiser's convention: minimise ``objective(x)`` subject to
+coupled constraints ``g_j(x) >= threshold_j`` (published ``c(x) <= 0`` constraints are
+rewritten as ``g = -c >= 0``) and, optionally, a cheap constraint that excludes points.
+``evaluate(x)`` returns the tuple expected by :func:`optimizer.bayesopt.minimize`.
+
+Reference optima are *computed*, not quoted: :meth:`TestProblem.reference_optimum`
+evaluates a dense grid, then polishes the best feasible grid points with SLSQP on the
+true constraints. Published values are given in docstrings for comparison only.
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from typing import Callable
+
+import numpy as np
+from scipy.optimize import minimize as _scipy_minimize
+from scipy.stats import norm
+
+from .bayesopt import binomial_observation
+
+__all__ = ["TestProblem", "Gardner2014", "Gramacy2016", "NoisyGramacy2016", "PROBLEMS"]
+
+
+class TestProblem:
+    """Base class. Subclasses define ``name``, ``bounds``, ``thresholds``,
+    ``objective(x)``, ``true_constraints(x)`` and optionally ``cheap_constraint``."""
+
+    __test__ = False  # not a pytest test class
+    name: str = ""
+    bounds: list[tuple[float, float]] = []
+    thresholds: dict[str, float] = {}
+    cheap_constraint: Callable[[np.ndarray], bool] | None = None
+    grid_points: int = 1001  # per dimension, for reference_optimum
+
+    def objective(self, x) -> float:
+        raise NotImplementedError
+
+    def true_constraints(self, x) -> dict[str, float]:
+        """Noise-free constraint values (feasible if ``>= thresholds``)."""
+        raise NotImplementedError
+
+    def evaluate(self, x):
+        """``(objective, constraints, variances, info)`` as observed by the optimiser."""
+        return self.objective(x), self.true_constraints(x), None, {}
+
+    def is_feasible(self, x, tol: float = 0.0) -> bool:
+        """True (noise-free) feasibility, constraint values allowed ``tol`` below threshold."""
+        x = np.asarray(x, dtype=float)
+        if self.cheap_constraint is not None and not self.cheap_constraint(x):
+            return False
+        g = self.true_constraints(x)
+        return all(g[k] >= t - tol for k, t in self.thresholds.items())
+
+    # vectorised helpers for the grid search (default: loop)
+    def _grid_values(self, X):
+        f = np.array([self.objective(x) for x in X])
+        ok = np.array([self.is_feasible(x) for x in X])
+        return f, ok
+
+    def reference_optimum(self) -> tuple[np.ndarray, float]:
+        """``(x*, f*)``: dense grid over the box, then SLSQP polish of the 20 best
+        feasible grid points on the true constraints (cached per instance)."""
+        if getattr(self, "_ref", None) is not None:
+            return self._ref
+        axes = [np.linspace(lo, hi, self.grid_points) for lo, hi in self.bounds]
+        X = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(axes))
+        f, ok = self._grid_values(X)
+        if not ok.any():
+            raise RuntimeError(f"{self.name}: no feasible grid point")
+        idx = np.flatnonzero(ok)[np.argsort(f[ok], kind="stable")[:20]]
+        best_x, best_f = X[idx[0]], float(f[idx[0]])
+        cons = [{"type": "ineq", "fun": self._slsqp_constraints}]
+        for i in idx:
+            res = _scipy_minimize(self.objective, X[i], method="SLSQP", bounds=self.bounds,
+                                  constraints=cons, options={"ftol": 1e-12, "maxiter": 500})
+            x = np.clip(res.x, [b[0] for b in self.bounds], [b[1] for b in self.bounds])
+            fx = float(self.objective(x))
+            if fx < best_f and self.is_feasible(x, tol=1e-9):
+                best_x, best_f = x, fx
+        self._ref = (np.asarray(best_x, dtype=float), best_f)
+        return self._ref
+
+    def _slsqp_constraints(self, x) -> np.ndarray:
+        """Smooth constraint margins, all ``>= 0`` exactly where x is truly feasible."""
+        g = self.true_constraints(x)
+        return np.array([g[k] - t for k, t in self.thresholds.items()])
+
+
+class Gardner2014(TestProblem):
+    """Toy problem of Gardner, Kusner, Xu, Weinberger & Cunningham, "Bayesian
+    optimization with inequality constraints", ICML 2014 (PMLR 32(2):937-945), sec. 5:
+
+        minimise  cos(2 x1) cos(x2) + sin(x1)
+        s.t.      cos(x1) cos(x2) - sin(x1) sin(x2) <= 0.5,   x in [0, 6]^2.
+
+    Coupled constraint ``g = 0.5 - cos(x1) cos(x2) + sin(x1) sin(x2) >= 0``.
+    Computed optimum: f* = -2 at x* = (3 pi / 2, 0) (on the bound x2 = 0; the constraint,
+    ``cos(x1 + x2) <= 0.5``, is inactive there, g = 0.5).
+    """
+
+    name = "gardner2014"
+    bounds = [(0.0, 6.0), (0.0, 6.0)]
+    thresholds = {"g": 0.0}
+
+    def objective(self, x):
+        return float(math.cos(2 * x[0]) * math.cos(x[1]) + math.sin(x[0]))
+
+    def true_constraints(self, x):
+        return {"g": float(0.5 - (math.cos(x[0]) * math.cos(x[1]) - math.sin(x[0]) * math.sin(x[1])))}
+
+    def _grid_values(self, X):
+        f = np.cos(2 * X[:, 0]) * np.cos(X[:, 1]) + np.sin(X[:, 0])
+        ok = 0.5 - np.cos(X[:, 0] + X[:, 1]) >= 0
+        return f, ok
+
+
+def _gramacy_c1(x):
+    return 1.5 - x[..., 0] - 2 * x[..., 1] - 0.5 * np.sin(2 * np.pi * (x[..., 0] ** 2 - 2 * x[..., 1]))
+
+
+def _gramacy_c2(x):
+    return x[..., 0] ** 2 + x[..., 1] ** 2 - 1.5
+
+
+class Gramacy2016(TestProblem):
+    """Problem of Gramacy, Gray, Le Digabel, Lee, Ranjan, Wells & Wild, "Modeling an
+    augmented Lagrangian for blackbox constrained optimization", Technometrics 58(1):1-11,
+    2016 (the 2-d "toy" problem with a linear objective and two constraints):
+
+        minimise  x1 + x2
+        s.t.      c1 = 3/2 - x1 - 2 x2 - 1/2 sin(2 pi (x1^2 - 2 x2)) <= 0
+                  c2 = x1^2 + x2^2 - 3/2 <= 0,                  x in [0, 1]^2.
+
+    Coupled constraints ``g1 = -c1 >= 0``, ``g2 = -c2 >= 0``. Published optimum
+    f* ~ 0.5998 at (0.1954, 0.4044); :meth:`reference_optimum` recomputes it.
+    """
+
+    name = "gramacy2016"
+    bounds = [(0.0, 1.0), (0.0, 1.0)]
+    thresholds = {"g1": 0.0, "g2": 0.0}
+
+    def objective(self, x):
+        return float(x[0] + x[1])
+
+    def true_constraints(self, x):
+        x = np.asarray(x, dtype=float)
+        return {"g1": float(-_gramacy_c1(x)), "g2": float(-_gramacy_c2(x))}
+
+    def _grid_values(self, X):
+        return X.sum(1), (_gramacy_c1(X) <= 0) & (_gramacy_c2(X) <= 0)
+
+
+class NoisyGramacy2016(TestProblem):
+    """Reliability-constrained variant of :class:`Gramacy2016` mirroring SPEC section 7
+    (``P*_s >= 98 %`` estimated from N = 100 Monte Carlo samples, mass constraint cheap).
+
+    The first constraint becomes a success probability ``p(x) = Phi(-c1(x) / s)``
+    (default ``s = 0.1``); an evaluation draws ``k ~ Binomial(N, p(x))`` and reports
+    ``p_success = k / N`` with variance from :func:`binomial_observation`. Feasible when
+    ``p(x) >= p_min`` (default 0.98), i.e. ``c1(x) <= -s Phi^{-1}(p_min)``. ``c2 <= 0`` is
+    the cheap deterministic constraint. The draw is seeded by ``(noise_seed, x)``, so
+    re-evaluating the same x gives the same k (common random numbers, reproducible).
+    Objective ``x1 + x2`` (exact).
+    """
+
+    name = "noisy_gramacy2016"
+    bounds = [(0.0, 1.0), (0.0, 1.0)]
+
+    def __init__(self, n_samples: int = 100, p_min: float = 0.98, s: float = 0.1,
+                 noise_seed: int = 0):
+        self.n_samples, self.p_min, self.s, self.noise_seed = n_samples, p_min, s, noise_seed
+        self.thresholds = {"p_success": p_min}
+
+    @staticmethod
+    def cheap_constraint(x) -> bool:
+        return bool(_gramacy_c2(np.asarray(x, dtype=float)) <= 0)
+
+    def objective(self, x):
+        return float(x[0] + x[1])
+
+    def success_probability(self, x) -> float:
+        """True ``p(x)``."""
+        return float(norm.cdf(-_gramacy_c1(np.asarray(x, dtype=float)) / self.s))
+
+    def true_constraints(self, x):
+        return {"p_success": self.success_probability(x)}
+
+    def evaluate(self, x):
+        x = np.asarray(x, dtype=float)
+        p = self.success_probability(x)
+        rng = np.random.default_rng([self.noise_seed, zlib.crc32(x.tobytes())])
+        k = int(rng.binomial(self.n_samples, p))
+        value, var = binomial_observation(k, self.n_samples)
+        return self.objective(x), {"p_success": value}, {"p_success": var}, {
+            "successes": k, "trials": self.n_samples, "p_true": p}
+
+    def _grid_values(self, X):
+        margin = -self.s * norm.ppf(self.p_min)
+        return X.sum(1), (_gramacy_c1(X) <= margin) & (_gramacy_c2(X) <= 0)
+
+    def _slsqp_constraints(self, x):
+        x = np.asarray(x, dtype=float)
+        margin = -self.s * norm.ppf(self.p_min)
+        return np.array([margin - _gramacy_c1(x), -_gramacy_c2(x)])
+
+
+PROBLEMS = {p.name: p for p in (Gardner2014, Gramacy2016, NoisyGramacy2016)}
