@@ -11,7 +11,7 @@ setup:
 	bash scripts/setup.sh
 
 demo: setup
-	$(VENV)/bin/tethernet capture --design baseline --via ros
+	$(VENV)/bin/tethernet capture --design mass-min --via ros
 
 test: setup
 	$(PY) -m pytest -q tests
@@ -20,7 +20,7 @@ test-fast: setup
 	$(PY) -m pytest -q -m "not slow" tests
 
 bench: setup
-	$(PY) benchmarks/bench.py
+	$(PY) benchmarks/bench_episode.py
 
 clean:
 	rm -rf $(VENV) build install log
