@@ -30,7 +30,9 @@ Forces:
     separating velocity removed, momentum kept).
 
 Forces on a body are gathered in a fixed, mirror-invariant order (left + right) + (down +
-up) + ..., so that a symmetric state stays symmetric to the last bit.
+up) + (others), so that a symmetric state stays symmetric to the last bit.  The grid
+threads are computed branch-free on structure-of-arrays copies of the state, which lets
+LLVM vectorise the two loops that dominate the cost.
 
 Units: SI throughout (m, s, kg, N).
 """
@@ -46,8 +48,8 @@ N_PRM = 12
 # indices into the integer state vector ``ev``
 E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
 N_EV = 5
-#: slots of ``node_links``: left, right, down, up grid threads, then two others
-N_SLOTS = 6
+#: slots of ``node_links``: the (non-grid) threads acting on a body
+N_SLOTS = 2
 #: Jacobi passes of the drawstring-lock projection per step
 LOCK_PASSES = 4
 
@@ -177,20 +179,25 @@ def stable_step(links, link_k, link_active, w, n_bodies):
 
 @njit(cache=True, error_model='numpy')
 def advance(n_steps, x, v, w, mass, radius, contact_mask,
+            grid_n, grid_rest, grid_kh, grid_ch, grid_kv, grid_cv,
             links, link_rest, link_k, link_c, link_active, node_links, node_link_sign,
             net_nodes, ring_pairs, pair_locked, pair_maxdist, pair_lock_step,
             tether_nodes, tether_links, centre_node, winch_body,
             tgt_pos, tgt_quat, tgt_vel, tgt_omega, tgt_inertia, cyl, verts, offsets,
-            prm, ev, contact_count, max_penetration, work_lf, work_f):
+            prm, ev, contact_count, max_penetration):
     """Advance the state ``n_steps`` steps of dt = prm[P_DT] in place.
 
     x, v: (N, 3) positions (m) and velocities (m/s); w: (N,) inverse masses (1/kg, 0 for
     kinematic bodies); mass (N,) (kg); radius (N,) contact sphere radii (m);
     contact_mask (N,) 1 where the body collides with the target.
-    links (M, 2) body pairs of the threads and tether segments with rest length (m),
-    stiffness k (N/m), damping c (N s/m) and an active flag; node_links (N, 6) the links
-    acting on each body in the slots (left, right, down, up, other, other) or -1, and
-    node_link_sign (N, 6) +1 where the body is the link's first end, -1 where second.
+    The net's grid threads are implicit: bodies [0, grid_n^2) form a grid_n x grid_n grid
+    (node (i, j) = grid_n i + j) whose x-threads (i, j)-(i, j+1) have stiffness grid_kh and
+    damping grid_ch ((grid_n, grid_n - 1), N/m and N s/m) and y-threads (i, j)-(i+1, j)
+    grid_kv, grid_cv ((grid_n - 1, grid_n)), all of rest length grid_rest (m).
+    Other threads (corner threads, tether segments): links (M, 2) with rest length (m),
+    stiffness k (N/m), damping c (N s/m) and an active flag; node_links (N, 2) the links
+    acting on each body (or -1) and node_link_sign (N, 2) +1 where the body is the link's
+    first end, -1 where second.
     ring_pairs (P, 2): adjacent drawstring nodes; pair_locked/pair_maxdist/pair_lock_step
     hold the lock state.  tether_nodes: indices of the tether's lumped masses (kinematic
     on a straight line while the winch pays out); tether_links: their link indices.
@@ -199,10 +206,12 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
     and meridional polygons of any extra solid (verts, offsets).
     ev: integer episode state (see E_* indices); contact_count accumulates body-steps in
     contact; max_penetration[0] the deepest penetration (m) seen.
-    work_lf (M, 3) and work_f (N, 3) are scratch arrays.
+
+    The state is copied to structure-of-arrays form for the step loop (so the grid loops
+    vectorise) and back at the end; the result does not depend on how steps are chunked.
     """
     dt = prm[P_DT]
-    n_bodies = x.shape[0]
+    N = x.shape[0]
     n_links = links.shape[0]
     n_pairs = ring_pairs.shape[0]
     n_tether = tether_nodes.shape[0]
@@ -219,98 +228,146 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         net_mass += mass[net_nodes[k]]
     R = np.empty((3, 3))
     pair_f = np.zeros((max(n_pairs, 1), 3))
-    lock_corr = np.zeros((n_bodies, 3))
-    lock_count = np.zeros(n_bodies)
+    acc = np.zeros((3, N))
+    lock_count = np.zeros(N)
+    # structure of arrays
+    X = np.empty(N)
+    Y = np.empty(N)
+    Z = np.empty(N)
+    VX = np.empty(N)
+    VY = np.empty(N)
+    VZ = np.empty(N)
+    FX = np.zeros(N)
+    FY = np.zeros(N)
+    FZ = np.zeros(N)
+    for i in range(N):
+        X[i] = x[i, 0]
+        Y[i] = x[i, 1]
+        Z[i] = x[i, 2]
+        VX[i] = v[i, 0]
+        VY[i] = v[i, 1]
+        VZ[i] = v[i, 2]
+    ng = grid_n
+    n_grid = ng * ng
+    # thread forces on the first end (+F n), padded with zero threads beyond the edges:
+    # x-thread (i, j) at HX[i * (ng + 1) + j + 1], y-thread (i, j) at VYp[(i + 1) * ng + j]
+    HX = np.zeros(ng * (ng + 1))
+    HY = np.zeros(ng * (ng + 1))
+    HZ = np.zeros(ng * (ng + 1))
+    UX = np.zeros((ng + 1) * ng)
+    UY = np.zeros((ng + 1) * ng)
+    UZ = np.zeros((ng + 1) * ng)
+    EF = np.zeros((max(n_links, 1), 3))
 
     for _ in range(n_steps):
         quat_to_matrix_into(tgt_quat, R)
         ox, oy, oz = tgt_omega[0], tgt_omega[1], tgt_omega[2]
-        # ---- 1. thread and tether forces, per link ---------------------------------
+        # ---- 1a. grid threads (tension-only Kelvin-Voigt), branch-free and vectorised ----
+        for i in range(ng):
+            for j in range(ng - 1):
+                a = i * ng + j
+                b = a + 1
+                dx = X[b] - X[a]
+                dy = Y[b] - Y[a]
+                dz = Z[b] - Z[a]
+                length = np.sqrt(dx * dx + dy * dy + dz * dz)
+                C = length - grid_rest
+                inv = 1.0 / max(length, 1e-12)
+                cdot = (dx * (VX[b] - VX[a]) + dy * (VY[b] - VY[a]) + dz * (VZ[b] - VZ[a])) * inv
+                F = grid_kh[i, j] * C + grid_ch[i, j] * cdot
+                F = F if C > 0.0 else 0.0
+                F = F if F > 0.0 else 0.0       # a thread never pushes, not even its damper
+                s_ = F * inv
+                q = i * (ng + 1) + j + 1
+                HX[q] = s_ * dx
+                HY[q] = s_ * dy
+                HZ[q] = s_ * dz
+        for i in range(ng - 1):
+            for j in range(ng):
+                a = i * ng + j
+                b = a + ng
+                dx = X[b] - X[a]
+                dy = Y[b] - Y[a]
+                dz = Z[b] - Z[a]
+                length = np.sqrt(dx * dx + dy * dy + dz * dz)
+                C = length - grid_rest
+                inv = 1.0 / max(length, 1e-12)
+                cdot = (dx * (VX[b] - VX[a]) + dy * (VY[b] - VY[a]) + dz * (VZ[b] - VZ[a])) * inv
+                F = grid_kv[i, j] * C + grid_cv[i, j] * cdot
+                F = F if C > 0.0 else 0.0
+                F = F if F > 0.0 else 0.0
+                s_ = F * inv
+                q = (i + 1) * ng + j
+                UX[q] = s_ * dx
+                UY[q] = s_ * dy
+                UZ[q] = s_ * dz
+        # ---- 1b. other threads: corner threads, tether ---------------------------------
         for m in range(n_links):
-            work_lf[m, 0] = 0.0
-            work_lf[m, 1] = 0.0
-            work_lf[m, 2] = 0.0
+            EF[m, 0] = 0.0
+            EF[m, 1] = 0.0
+            EF[m, 2] = 0.0
             if link_active[m] == 0:
                 continue
             i = links[m, 0]
             j = links[m, 1]
-            dx = x[j, 0] - x[i, 0]
-            dy = x[j, 1] - x[i, 1]
-            dz = x[j, 2] - x[i, 2]
+            dx = X[j] - X[i]
+            dy = Y[j] - Y[i]
+            dz = Z[j] - Z[i]
             len2 = dx * dx + dy * dy + dz * dz
             if len2 <= link_rest[m] * link_rest[m] or len2 < 1e-28:
-                continue  # slack: no sqrt needed
-            length = np.sqrt(len2)
-            C = length - link_rest[m]
-            inv_len = 1.0 / length
-            nx = dx * inv_len
-            ny = dy * inv_len
-            nz = dz * inv_len
-            cdot = nx * (v[j, 0] - v[i, 0]) + ny * (v[j, 1] - v[i, 1]) + nz * (v[j, 2] - v[i, 2])
-            F = link_k[m] * C + link_c[m] * cdot
-            if F <= 0.0:  # the damper would push: a thread never pushes
                 continue
-            work_lf[m, 0] = F * nx
-            work_lf[m, 1] = F * ny
-            work_lf[m, 2] = F * nz
-        # ---- 2. gather per body, mirror-invariant order ----------------------------
-        for i in range(n_bodies):
-            gx0 = 0.0
-            gy0 = 0.0
-            gz0 = 0.0
-            gx1 = 0.0
-            gy1 = 0.0
-            gz1 = 0.0
-            gx2 = 0.0
-            gy2 = 0.0
-            gz2 = 0.0
-            m = node_links[i, 0]
-            if m >= 0:
-                sg = node_link_sign[i, 0]
-                gx0 = sg * work_lf[m, 0]
-                gy0 = sg * work_lf[m, 1]
-                gz0 = sg * work_lf[m, 2]
-            m = node_links[i, 1]
-            if m >= 0:
-                sg = node_link_sign[i, 1]
-                gx0 += sg * work_lf[m, 0]      # left + right (commutative)
-                gy0 += sg * work_lf[m, 1]
-                gz0 += sg * work_lf[m, 2]
-            m = node_links[i, 2]
-            if m >= 0:
-                sg = node_link_sign[i, 2]
-                gx1 = sg * work_lf[m, 0]
-                gy1 = sg * work_lf[m, 1]
-                gz1 = sg * work_lf[m, 2]
-            m = node_links[i, 3]
-            if m >= 0:
-                sg = node_link_sign[i, 3]
-                gx1 += sg * work_lf[m, 0]      # down + up
-                gy1 += sg * work_lf[m, 1]
-                gz1 += sg * work_lf[m, 2]
-            m = node_links[i, 4]
-            if m >= 0:
-                sg = node_link_sign[i, 4]
-                gx2 = sg * work_lf[m, 0]
-                gy2 = sg * work_lf[m, 1]
-                gz2 = sg * work_lf[m, 2]
-            m = node_links[i, 5]
-            if m >= 0:
-                sg = node_link_sign[i, 5]
-                gx2 += sg * work_lf[m, 0]      # the two others
-                gy2 += sg * work_lf[m, 1]
-                gz2 += sg * work_lf[m, 2]
-            work_f[i, 0] = (gx0 + gx1) + gx2
-            work_f[i, 1] = (gy0 + gy1) + gy2
-            work_f[i, 2] = (gz0 + gz1) + gz2
+            length = np.sqrt(len2)
+            inv = 1.0 / length
+            cdot = (dx * (VX[j] - VX[i]) + dy * (VY[j] - VY[i]) + dz * (VZ[j] - VZ[i])) * inv
+            F = link_k[m] * (length - link_rest[m]) + link_c[m] * cdot
+            if F <= 0.0:
+                continue
+            EF[m, 0] = F * inv * dx
+            EF[m, 1] = F * inv * dy
+            EF[m, 2] = F * inv * dz
+        # ---- 2. gather per body in a mirror-invariant order ----------------------------
+        # (left + right) + (down + up) for grid nodes: each pair's sum is commutative
+        for i in range(ng):
+            for j in range(ng):
+                a = i * ng + j
+                qh = i * (ng + 1) + j
+                qv = i * ng + j
+                FX[a] = (HX[qh + 1] - HX[qh]) + (UX[qv + ng] - UX[qv])
+                FY[a] = (HY[qh + 1] - HY[qh]) + (UY[qv + ng] - UY[qv])
+                FZ[a] = (HZ[qh + 1] - HZ[qh]) + (UZ[qv + ng] - UZ[qv])
+        for a in range(n_grid, N):
+            FX[a] = 0.0
+            FY[a] = 0.0
+            FZ[a] = 0.0
+        for a in range(N):
+            m0 = node_links[a, 0]
+            m1 = node_links[a, 1]
+            if m0 < 0 and m1 < 0:
+                continue
+            ex = 0.0
+            ey = 0.0
+            ez = 0.0
+            if m0 >= 0:
+                sg = node_link_sign[a, 0]
+                ex = sg * EF[m0, 0]
+                ey = sg * EF[m0, 1]
+                ez = sg * EF[m0, 2]
+            if m1 >= 0:
+                sg = node_link_sign[a, 1]
+                ex += sg * EF[m1, 0]
+                ey += sg * EF[m1, 1]
+                ez += sg * EF[m1, 2]
+            FX[a] += ex
+            FY[a] += ey
+            FZ[a] += ez
         # ---- 3. drawstring closing force ---------------------------------------------
         if ev[E_CLOSING_ACTIVE] == 1:
             for p in range(n_pairs):
                 a = ring_pairs[p, 0]
                 b = ring_pairs[p, 1]
-                dx = x[b, 0] - x[a, 0]
-                dy = x[b, 1] - x[a, 1]
-                dz = x[b, 2] - x[a, 2]
+                dx = X[b] - X[a]
+                dy = Y[b] - Y[a]
+                dz = Z[b] - Z[a]
                 d = np.sqrt(dx * dx + dy * dy + dz * dz)
                 if d > 1e-12:
                     s_ = close_force / d
@@ -324,14 +381,17 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
             # a ring node is in two pairs: sum both (commutative) before adding
             for p in range(n_pairs):
                 for c in range(3):
-                    lock_corr[ring_pairs[p, 0], c] += pair_f[p, c]
-                    lock_corr[ring_pairs[p, 1], c] -= pair_f[p, c]
+                    acc[c, ring_pairs[p, 0]] += pair_f[p, c]
+                    acc[c, ring_pairs[p, 1]] -= pair_f[p, c]
             for p in range(n_pairs):
                 for e in range(2):
                     a = ring_pairs[p, e]
-                    for c in range(3):
-                        work_f[a, c] += lock_corr[a, c]
-                        lock_corr[a, c] = 0.0
+                    FX[a] += acc[0, a]
+                    FY[a] += acc[1, a]
+                    FZ[a] += acc[2, a]
+                    acc[0, a] = 0.0
+                    acc[1, a] = 0.0
+                    acc[2, a] = 0.0
         # ---- 4. contact with the target ----------------------------------------------
         n_contacts = 0
         fx_t = 0.0
@@ -340,12 +400,12 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         tx_t = 0.0
         ty_t = 0.0
         tz_t = 0.0
-        for i in range(n_bodies):
+        for i in range(N):
             if contact_mask[i] == 0 or w[i] == 0.0:
                 continue
-            rx = x[i, 0] - tgt_pos[0]
-            ry = x[i, 1] - tgt_pos[1]
-            rz = x[i, 2] - tgt_pos[2]
+            rx = X[i] - tgt_pos[0]
+            ry = Y[i] - tgt_pos[1]
+            rz = Z[i] - tgt_pos[2]
             rb = bound + radius[i]
             if rx * rx + ry * ry + rz * rz > rb * rb:
                 continue
@@ -362,9 +422,9 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
             ny = R[1, 0] * nbx + R[1, 1] * nby + R[1, 2] * nbz
             nz = R[2, 0] * nbx + R[2, 1] * nby + R[2, 2] * nbz
             # velocity relative to the target's material point at the body
-            vrx = v[i, 0] - (tgt_vel[0] + oy * rz - oz * ry)
-            vry = v[i, 1] - (tgt_vel[1] + oz * rx - ox * rz)
-            vrz = v[i, 2] - (tgt_vel[2] + ox * ry - oy * rx)
+            vrx = VX[i] - (tgt_vel[0] + oy * rz - oz * ry)
+            vry = VY[i] - (tgt_vel[1] + oz * rx - ox * rz)
+            vrz = VZ[i] - (tgt_vel[2] + ox * ry - oy * rx)
             vn = vrx * nx + vry * ny + vrz * nz
             Fn = mass[i] * (k_c_unit * delta - c_c_unit * vn)
             if Fn <= 0.0:  # a contact never pulls
@@ -385,9 +445,9 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                 fx -= Ft * tvx / vt
                 fy -= Ft * tvy / vt
                 fz -= Ft * tvz / vt
-            work_f[i, 0] += fx
-            work_f[i, 1] += fy
-            work_f[i, 2] += fz
+            FX[i] += fx
+            FY[i] += fy
+            FZ[i] += fz
             # equal and opposite on the target, acting at the body's centre
             fx_t -= fx
             fy_t -= fy
@@ -396,21 +456,26 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
             ty_t -= rz * fx - rx * fz
             tz_t -= rx * fy - ry * fx
         contact_count[0] += n_contacts
-        # ---- 5. integrate bodies (symplectic Euler) ----------------------------------
-        for i in range(n_bodies):
-            if w[i] == 0.0:
-                continue
-            for c in range(3):
-                v[i, c] += dt * w[i] * work_f[i, c]
-                x[i, c] += dt * v[i, c]
+        # ---- 5. integrate bodies (symplectic Euler), vectorised -------------------------
+        for i in range(N):
+            hw = dt * w[i]
+            VX[i] += hw * FX[i]
+            VY[i] += hw * FY[i]
+            VZ[i] += hw * FZ[i]
+            X[i] += dt * VX[i]
+            Y[i] += dt * VY[i]
+            Z[i] += dt * VZ[i]
         if ev[E_TETHER_LOCKED] == 0:
             # the winch pays out freely: the deployed tether lies straight and slack
             for k in range(n_tether):
                 f = (k + 1.0) / (n_tether + 1.0)
                 t = tether_nodes[k]
-                for c in range(3):
-                    x[t, c] = x[winch_body, c] + f * (x[centre_node, c] - x[winch_body, c])
-                    v[t, c] = v[winch_body, c] + f * (v[centre_node, c] - v[winch_body, c])
+                X[t] = X[winch_body] + f * (X[centre_node] - X[winch_body])
+                Y[t] = Y[winch_body] + f * (Y[centre_node] - Y[winch_body])
+                Z[t] = Z[winch_body] + f * (Z[centre_node] - Z[winch_body])
+                VX[t] = VX[winch_body] + f * (VX[centre_node] - VX[winch_body])
+                VY[t] = VY[winch_body] + f * (VY[centre_node] - VY[winch_body])
+                VZ[t] = VZ[winch_body] + f * (VZ[centre_node] - VZ[winch_body])
         # ---- 6. integrate the target (free rigid body) -------------------------------
         tgt_vel[0] += dt * tgt_w * fx_t
         tgt_vel[1] += dt * tgt_w * fy_t
@@ -446,29 +511,30 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         tgt_quat[3] = n3 / qn
         # ---- 7. drawstring locks: one-sided distance joints (ratchet) ---------------
         if ev[E_CLOSING_ACTIVE] == 1:
-            _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, lock_corr, lock_count)
+            _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist,
+                           acc, lock_count)
 
         ev[E_STEP] += 1
         # ---- 8. events: closing trigger, tether lock, drawstring locks -----------------
         if ev[E_CLOSING_ARMED] == 1 and ev[E_CLOSING_ACTIVE] == 0:
             zc = 0.0
             for k in range(net_nodes.shape[0]):
-                zc += mass[net_nodes[k]] * x[net_nodes[k], 2]
+                zc += mass[net_nodes[k]] * Z[net_nodes[k]]
             zc /= net_mass
             if zc - tgt_pos[2] >= prm[P_CLOSE_THRESHOLD]:
                 ev[E_CLOSING_ACTIVE] = 1
                 ev[E_CLOSING_STEP] = ev[E_STEP]
                 if ev[E_TETHER_LOCKED] == 0:
-                    _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c,
-                                 link_active, tether_nodes, tether_links, prm)
+                    _lock_tether(X, Y, Z, w, mass, contact_mask, links, link_rest, link_k,
+                                 link_c, link_active, tether_nodes, tether_links, prm)
                     ev[E_TETHER_LOCKED] = 1
         if ev[E_CLOSING_ACTIVE] == 1:
             for p in range(n_pairs):
                 a = ring_pairs[p, 0]
                 b = ring_pairs[p, 1]
-                dx = x[b, 0] - x[a, 0]
-                dy = x[b, 1] - x[a, 1]
-                dz = x[b, 2] - x[a, 2]
+                dx = X[b] - X[a]
+                dy = Y[b] - Y[a]
+                dz = Z[b] - Z[a]
                 d = np.sqrt(dx * dx + dy * dy + dz * dz)
                 if pair_locked[p] == 0:
                     if d < prm[P_LOCK_DIST]:
@@ -477,11 +543,18 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
                         pair_lock_step[p] = ev[E_STEP]
                 elif d < pair_maxdist[p]:
                     pair_maxdist[p] = d
+    for i in range(N):
+        x[i, 0] = X[i]
+        x[i, 1] = Y[i]
+        x[i, 2] = Z[i]
+        v[i, 0] = VX[i]
+        v[i, 1] = VY[i]
+        v[i, 2] = VZ[i]
     return 0
 
 
 @njit(cache=True, error_model='numpy')
-def _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
+def _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
     """Hold every locked pair within its maximum distance: positions are projected along
     the pair (mass-weighted, so momentum is kept) and the separating relative velocity is
     removed.  A node in two locked pairs takes the mean of both corrections (Jacobi with
@@ -498,32 +571,32 @@ def _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
                 continue
             a = ring_pairs[p, 0]
             b = ring_pairs[p, 1]
-            dx = x[b, 0] - x[a, 0]
-            dy = x[b, 1] - x[a, 1]
-            dz = x[b, 2] - x[a, 2]
+            dx = X[b] - X[a]
+            dy = Y[b] - Y[a]
+            dz = Z[b] - Z[a]
             d = np.sqrt(dx * dx + dy * dy + dz * dz)
             C = d - pair_maxdist[p]
             wsum = w[a] + w[b]
             if C <= 0.0 or d < 1e-14 or wsum == 0.0:
                 continue
             any_active = True
-            nx = dx / d
-            ny = dy / d
-            nz = dz / d
-            s = C / wsum
-            corr[a, 0] += w[a] * s * nx
-            corr[a, 1] += w[a] * s * ny
-            corr[a, 2] += w[a] * s * nz
-            corr[b, 0] -= w[b] * s * nx
-            corr[b, 1] -= w[b] * s * ny
-            corr[b, 2] -= w[b] * s * nz
+            s = C / (wsum * d)
+            corr[0, a] += w[a] * s * dx
+            corr[1, a] += w[a] * s * dy
+            corr[2, a] += w[a] * s * dz
+            corr[0, b] -= w[b] * s * dx
+            corr[1, b] -= w[b] * s * dy
+            corr[2, b] -= w[b] * s * dz
         for p in range(n_pairs):
             for e in range(2):
                 a = ring_pairs[p, e]
                 if count[a] > 0.0:
-                    for c in range(3):
-                        x[a, c] += corr[a, c] / count[a]
-                        corr[a, c] = 0.0
+                    X[a] += corr[0, a] / count[a]
+                    Y[a] += corr[1, a] / count[a]
+                    Z[a] += corr[2, a] / count[a]
+                    corr[0, a] = 0.0
+                    corr[1, a] = 0.0
+                    corr[2, a] = 0.0
                     count[a] = 0.0
         if not any_active:
             break
@@ -533,9 +606,9 @@ def _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
             continue
         a = ring_pairs[p, 0]
         b = ring_pairs[p, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
+        dx = X[b] - X[a]
+        dy = Y[b] - Y[a]
+        dz = Z[b] - Z[a]
         d = np.sqrt(dx * dx + dy * dy + dz * dz)
         wsum = w[a] + w[b]
         if d < 1e-14 or wsum == 0.0 or d < pair_maxdist[p] * (1.0 - 1e-9):
@@ -543,19 +616,19 @@ def _project_locks(x, v, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
         nx = dx / d
         ny = dy / d
         nz = dz / d
-        vsep = nx * (v[b, 0] - v[a, 0]) + ny * (v[b, 1] - v[a, 1]) + nz * (v[b, 2] - v[a, 2])
+        vsep = nx * (VX[b] - VX[a]) + ny * (VY[b] - VY[a]) + nz * (VZ[b] - VZ[a])
         if vsep > 0.0:
             s = vsep / wsum
-            v[a, 0] += w[a] * s * nx
-            v[a, 1] += w[a] * s * ny
-            v[a, 2] += w[a] * s * nz
-            v[b, 0] -= w[b] * s * nx
-            v[b, 1] -= w[b] * s * ny
-            v[b, 2] -= w[b] * s * nz
+            VX[a] += w[a] * s * nx
+            VY[a] += w[a] * s * ny
+            VZ[a] += w[a] * s * nz
+            VX[b] -= w[b] * s * nx
+            VY[b] -= w[b] * s * ny
+            VZ[b] -= w[b] * s * nz
 
 
 @njit(cache=True, error_model='numpy')
-def _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c, link_active,
+def _lock_tether(X, Y, Z, w, mass, contact_mask, links, link_rest, link_k, link_c, link_active,
                  tether_nodes, tether_links, prm):
     """The winch locks the paid-out length: the tether segments get their rest lengths
     (the current ones), stiffness E A / l and damping, and the tether's lumped masses
@@ -564,9 +637,9 @@ def _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c, lin
         m = tether_links[k]
         a = links[m, 0]
         b = links[m, 1]
-        dx = x[b, 0] - x[a, 0]
-        dy = x[b, 1] - x[a, 1]
-        dz = x[b, 2] - x[a, 2]
+        dx = X[b] - X[a]
+        dy = Y[b] - Y[a]
+        dz = Z[b] - Z[a]
         link_rest[m] = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
         link_active[m] = 1
     for k in range(tether_nodes.shape[0]):
@@ -580,5 +653,5 @@ def _lock_tether(x, w, mass, contact_mask, links, link_rest, link_k, link_c, lin
         b = links[m, 1]
         kk = prm[P_TETHER_EA] / link_rest[m]
         link_k[m] = kk
-        meff = mass[a] * mass[b] / (mass[a] + mass[b])
+        meff = (mass[a] * mass[b]) / (mass[a] + mass[b])
         link_c[m] = 2.0 * prm[P_ZETA_THREAD] * np.sqrt(kk * meff)

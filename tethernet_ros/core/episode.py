@@ -31,8 +31,6 @@ class CaptureSimulation:
         self.cfg = scenario.config
         self.dt = scenario.dt
         nb = scenario.n_bodies
-        self._lf = np.zeros((scenario.links.shape[0], 3))
-        self._f = np.zeros((nb, 3))
         self.contact_count = np.zeros(1, dtype=np.int64)
         self.max_penetration = np.zeros(1)
         self.net_masses = scenario.mass[scenario.net_nodes].copy()
@@ -76,13 +74,13 @@ class CaptureSimulation:
             return
         s = self.s
         dyn.advance(n_steps, s.x, s.v, s.w, s.mass, s.radius, s.contact_mask,
+                    s.grid_n, s.grid_rest, s.grid_kh, s.grid_ch, s.grid_kv, s.grid_cv,
                     s.links, s.link_rest, s.link_k, s.link_c, s.link_active, s.node_links,
                     s.node_link_sign,
                     s.net_nodes, s.ring_pairs, s.pair_locked, s.pair_maxdist, s.pair_lock_step,
                     s.tether_nodes, s.tether_links, s.centre_node, s.winch_body,
                     s.tgt_pos, s.tgt_quat, s.tgt_vel, s.tgt_omega, s.tgt_inertia, s.cyl, s.verts,
-                    s.offsets, s.prm, s.ev, self.contact_count, self.max_penetration,
-                    self._lf, self._f)
+                    s.offsets, s.prm, s.ev, self.contact_count, self.max_penetration)
 
     def divergence(self) -> str:
         """'' if the state is sound, else why the simulation diverged."""
@@ -130,11 +128,11 @@ class CaptureSimulation:
     def elastic_energy(self) -> float:
         """Strain energy (J) of stretched threads and tether segments."""
         s = self.s
-        act = s.link_active == 1
-        a, b = s.links[act, 0], s.links[act, 1]
-        stretch = np.linalg.norm(s.x[b] - s.x[a], axis=1) - s.link_rest[act]
-        stretch = np.maximum(stretch, 0.0)
-        return float((0.5 * s.link_k[act] * stretch**2).sum())
+        pairs, rest, k, _, active = s.threads()
+        act = active == 1
+        a, b = pairs[act, 0], pairs[act, 1]
+        stretch = np.maximum(np.linalg.norm(s.x[b] - s.x[a], axis=1) - rest[act], 0.0)
+        return float((0.5 * k[act] * stretch**2).sum())
 
 
 @dataclass

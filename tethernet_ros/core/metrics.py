@@ -100,3 +100,16 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
     centre = (p + z * z / (2 * n)) / den
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
     return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def clopper_pearson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) interval of a binomial proportion: beta quantiles,
+    (0, upper) at 0 successes and (lower, 1) at n successes."""
+    if n <= 0:
+        return 0.0, 1.0
+    from scipy.stats import beta
+
+    a = 1.0 - confidence
+    lo = 0.0 if successes <= 0 else float(beta.ppf(a / 2, successes, n - successes + 1))
+    hi = 1.0 if successes >= n else float(beta.ppf(1 - a / 2, successes + 1, n - successes))
+    return lo, hi

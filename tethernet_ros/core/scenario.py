@@ -64,6 +64,24 @@ def grid_index(i: int, j: int, n: int = 17) -> int:
     return i * n + j
 
 
+def grid_thread_pairs(n: int) -> np.ndarray:
+    """(T, 2) node pairs of the grid threads: the x-threads row by row, then the y-threads
+    (the order of the kernel's grid_kh.ravel(), grid_kv.ravel())."""
+    if n == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    gi = np.arange(n * n).reshape(n, n)
+    xs = np.stack([gi[:, :-1].ravel(), gi[:, 1:].ravel()], axis=1)
+    ys = np.stack([gi[:-1, :].ravel(), gi[1:, :].ravel()], axis=1)
+    return np.concatenate([xs, ys]).astype(np.int64)
+
+
+def thread_damping(k, m_a, m_b, zeta):
+    """c = 2 zeta sqrt(k m_eff) (N s/m), m_eff = m_a m_b / (m_a + m_b) computed so that it
+    is the same to the last bit whichever end comes first."""
+    m_eff = (m_a * m_b) / (m_a + m_b)
+    return 2.0 * zeta * np.sqrt(k * m_eff)
+
+
 def closing_ring(config: SimConfig) -> list[int]:
     """Perimeter nodes of the drawstring in ring order (12 for the default indices)."""
     n = config.grid_nodes
@@ -105,6 +123,12 @@ class Scenario:
     mass: np.ndarray
     radius: np.ndarray
     contact_mask: np.ndarray
+    grid_n: int
+    grid_rest: float
+    grid_kh: np.ndarray
+    grid_ch: np.ndarray
+    grid_kv: np.ndarray
+    grid_cv: np.ndarray
     links: np.ndarray
     link_rest: np.ndarray
     link_k: np.ndarray
@@ -138,6 +162,17 @@ class Scenario:
     @property
     def n_bodies(self) -> int:
         return self.x.shape[0]
+
+    def threads(self):
+        """Every thread, grid and other: (pairs (T, 2), rest (m), k (N/m), c (N s/m),
+        active flags), for analysis outside the kernel."""
+        gp = grid_thread_pairs(self.grid_n)
+        ng = len(gp)
+        return (np.concatenate([gp, self.links]).astype(np.int64),
+                np.concatenate([np.full(ng, self.grid_rest), self.link_rest]),
+                np.concatenate([self.grid_kh.ravel(), self.grid_kv.ravel(), self.link_k]),
+                np.concatenate([self.grid_ch.ravel(), self.grid_cv.ravel(), self.link_c]),
+                np.concatenate([np.ones(ng, dtype=np.uint8), self.link_active]))
 
 
 def build_scenario(design: Design, actions: Actions, world: World,
@@ -184,7 +219,18 @@ def build_scenario(design: Design, actions: Actions, world: World,
         for j in range(n):
             x[grid_index(i, j, n)] = [(j - meshes / 2) * s, (i - meshes / 2) * s, 0.0]
 
-    # grid threads; slots of each node's threads: left (-x), right (+x), down (-y), up (+y)
+    # grid threads are implicit in the kernel (dynamics.advance); their lumped mass: half of
+    # each x- and y-thread to each end node
+    grid_pairs = grid_thread_pairs(n)
+    for a, b in grid_pairs:
+        mass[a] += 0.5 * lin_density * l0
+        mass[b] += 0.5 * lin_density * l0
+    # drawstring mass (the allowance of m_a: 4 L_n of thread) spread over the ring nodes
+    ring = closing_ring(cfg)
+    for r in ring:
+        mass[r] += 4.0 * design.L_n * lin_density / len(ring)
+
+    # other threads (corner threads, tether), each acting through a body's two slots
     links = []
     slots = np.full((nb, N_SLOTS), -1, dtype=np.int64)
     signs = np.zeros((nb, N_SLOTS))
@@ -196,26 +242,11 @@ def build_scenario(design: Design, actions: Actions, world: World,
         slots[b, slot_b], signs[b, slot_b] = m, -1.0
         return m
 
-    for i in range(n):
-        for j in range(n - 1):
-            add_link(grid_index(i, j, n), grid_index(i, j + 1, n), 1, 0)
-    for i in range(n - 1):
-        for j in range(n):
-            add_link(grid_index(i, j, n), grid_index(i + 1, j, n), 3, 2)
-    rest = [l0] * len(links)
-    # lumped thread mass: half of each grid thread to each end node
-    for a, b in links:
-        mass[a] += 0.5 * lin_density * l0
-        mass[b] += 0.5 * lin_density * l0
-    # drawstring mass (the allowance of m_a: 4 L_n of thread) spread over the ring nodes
-    ring = closing_ring(cfg)
-    for r in ring:
-        mass[r] += 4.0 * design.L_n * lin_density / len(ring)
-
     # corner masses and corner threads
     lc = cfg.corner_thread_meshes * l0
     cnodes = corner_nodes(cfg)
     corner_bodies = np.arange(i_corner0, i_corner0 + 4)
+    rest = []
     for k, (node, body) in enumerate(zip(cnodes, corner_bodies)):
         sx, sy = CORNER_SIGNS[k]
         x[body] = x[node] + np.array([sx, sy, 0.0]) * s
@@ -223,7 +254,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
         mass[body] = design.m_c + 0.5 * lin_density * lc
         mass[node] += 0.5 * lin_density * lc
         radius[body] = cfg.corner_mass_radius
-        add_link(node, body, 4, 0)
+        add_link(node, body, 0, 0)
         rest.append(lc)
     n_net_links = len(links)
 
@@ -232,8 +263,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
     chain = [centre] + list(range(i_tether0, i_tether0 + n_tether)) + [i_chaser]
     tether_links = []
     for q, (a, b) in enumerate(zip(chain[:-1], chain[1:])):
-        # the centre node's tether slot is 5; along the chain: 0 toward the net, 1 away
-        tether_links.append(add_link(a, b, 5 if q == 0 else 1, 0))
+        # along the chain: slot 0 toward the net, slot 1 toward the winch
+        tether_links.append(add_link(a, b, 1 if q > 0 else 0, 0))
         rest.append(0.0)  # set when the winch locks
     # placeholder masses (set when the winch locks; kinematic until then)
     mass[i_tether0:i_chaser] = lin_density * 1.0
@@ -246,15 +277,22 @@ def build_scenario(design: Design, actions: Actions, world: World,
     rest = np.array(rest, dtype=float)
     k = np.zeros(len(links))
     k[:n_net_links] = EA / rest[:n_net_links]
-    ma, mb = mass[links[:, 0]], mass[links[:, 1]]
-    m_eff = (ma * mb) / (ma + mb)          # symmetric in the two ends, to the last bit
-    damping = 2.0 * cfg.damping_ratio * np.sqrt(k * m_eff)
+    damping = thread_damping(k, mass[links[:, 0]], mass[links[:, 1]], cfg.damping_ratio)
     active = np.zeros(len(links), dtype=np.uint8)
     active[:n_net_links] = 1
+    k_grid = EA / l0
+    gi = np.arange(n * n).reshape(n, n)
+    grid_kh = np.full((n, n - 1), k_grid)
+    grid_kv = np.full((n - 1, n), k_grid)
+    grid_ch = thread_damping(grid_kh, mass[gi[:, :-1]], mass[gi[:, 1:]], cfg.damping_ratio)
+    grid_cv = thread_damping(grid_kv, mass[gi[:-1, :]], mass[gi[1:, :]], cfg.damping_ratio)
 
     w = 1.0 / mass
     w[i_tether0:i_chaser] = 0.0  # kinematic while the winch pays out
-    _, stable = dyn.stable_step(links, k, active, w, nb)
+    all_pairs = np.concatenate([grid_pairs, links])
+    all_k = np.concatenate([np.full(len(grid_pairs), k_grid), k])
+    all_active = np.concatenate([np.ones(len(grid_pairs), dtype=np.uint8), active])
+    _, stable = dyn.stable_step(all_pairs, all_k, all_active, w, nb)
     dt = cfg.step_for(stable)
 
     ring_pairs = np.array([(ring[q], ring[(q + 1) % len(ring)]) for q in range(len(ring))], dtype=np.int64)
@@ -280,7 +318,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     return Scenario(
         design=design, config=cfg, target=target, x=x, v=v, w=w, mass=mass, radius=radius,
-        contact_mask=contact, links=links, link_rest=rest, link_k=k, link_c=damping,
+        contact_mask=contact, grid_n=n, grid_rest=l0, grid_kh=grid_kh, grid_ch=grid_ch,
+        grid_kv=grid_kv, grid_cv=grid_cv, links=links, link_rest=rest, link_k=k, link_c=damping,
         link_active=active, node_links=slots, node_link_sign=signs, dt=dt, stable_step=stable, net_nodes=np.arange(n_net, dtype=np.int64),
         ring_pairs=ring_pairs, pair_locked=np.zeros(len(ring_pairs), dtype=np.uint8),
         pair_maxdist=np.zeros(len(ring_pairs)), pair_lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),

@@ -1,0 +1,209 @@
+"""`tethernet validate`: Monte Carlo reliability of a design (P*_s, mean T, failures).
+
+Prints a row of the SPEC section 9 results table per design; ``--reference`` runs the four
+reference designs.  Every finished sample is appended to a results file (default
+``out/montecarlo/<design>_seed<BASE>.jsonl``), so an interrupted run resumes when it is
+run again and a finished one is read back instead of simulated (``--fresh`` ignores it).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from ..core.design import REFERENCE_DESIGNS
+from .common import (add_config_argument, add_noise_arguments, config_from_args,
+                     noise_model_from_args, print_json)
+
+NAME = "validate"
+HELP = "Monte Carlo validation of a design: P*_s with a 95 % interval, mean T, failures"
+
+
+def add_arguments(p):
+    g = p.add_mutually_exclusive_group(required=True)
+    g.add_argument("--design", metavar="NAME|FILE.yaml",
+                   help="reference design (baseline, suboptimal, mass-min, time-min) or a YAML "
+                        "file with keys m_c, L_n, r_n, d_L, V_e, d_c")
+    g.add_argument("--reference", action="store_true", help="all four reference designs")
+    add_run_arguments(p, default_samples=1000)
+    p.add_argument("--json", action="store_true", help="print JSON (one object, or a list with --reference)")
+    p.add_argument("--per-sample", action="store_true", help="with --json: include every sample's result")
+
+
+def add_run_arguments(p, default_samples: int) -> None:
+    """Options shared by the Monte Carlo commands (validate, sensitivity, figures cqi)."""
+    p.add_argument("--samples", type=int, default=default_samples, metavar="N",
+                   help=f"Monte Carlo samples per design (default {default_samples})")
+    p.add_argument("--seed", type=int, default=0, metavar="BASE",
+                   help="base seed: sample i uses noise seed BASE*1000003+i (default 0)")
+    p.add_argument("--workers", type=int, default=None, metavar="K",
+                   help="local worker processes (default: all cores; 0: in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR|local",
+                   help="run on a Dask cluster at ADDR (tcp://host:8786), or 'local' for a "
+                        "local Dask cluster of --workers processes")
+    p.add_argument("--results", default=None, metavar="FILE.jsonl",
+                   help="per-sample results file to append to and resume from "
+                        "(default out/montecarlo/<design>_seed<BASE>.jsonl)")
+    p.add_argument("--fresh", action="store_true",
+                   help="ignore results already in the results file (simulate every sample)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_noise_arguments(p)
+    add_config_argument(p)
+    # advanced / test settings (not in --help)
+    p.add_argument("--settle-time", type=float, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--horizon", type=float, default=None, help=argparse.SUPPRESS)
+
+
+def check_run_arguments(args) -> None:
+    from ..errors import UserError
+
+    if args.samples is None or args.samples < 1:
+        raise UserError(f"--samples {args.samples}: must be an integer >= 1")
+    if args.seed < 0:
+        raise UserError(f"--seed {args.seed}: must be an integer >= 0")
+    if args.workers is not None and args.workers < 0:
+        raise UserError(f"--workers {args.workers}: must be an integer >= 0 (0: in-process)")
+    if args.scheduler is not None and args.workers == 0:
+        raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
+
+
+def run_config(args, **extra):
+    over = dict(extra)
+    if args.settle_time is not None:
+        over["settle_time"] = args.settle_time
+    if args.horizon is not None:
+        over["horizon"] = args.horizon
+    return config_from_args(args, **over)
+
+
+def backend_from_args(args):
+    from ..montecarlo import make_backend
+
+    return make_backend(workers=args.workers, scheduler=args.scheduler)
+
+
+def design_label(name_or_path: str) -> str:
+    return name_or_path if name_or_path in REFERENCE_DESIGNS else Path(name_or_path).stem
+
+
+def default_results_path(label: str, seed: int, suffix: str = "") -> Path:
+    return Path("out") / "montecarlo" / f"{label}{suffix}_seed{seed}.jsonl"
+
+
+class Progress:
+    """tqdm bar on stderr with ETA, fed by the evaluator's progress callback."""
+
+    def __init__(self, desc: str, disable: bool):
+        self.desc = desc
+        self.disable = disable
+        self.bar = None
+
+    def __call__(self, done, total, result):
+        if self.disable:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, initial=done, desc=self.desc, unit="ep", file=sys.stderr,
+                            dynamic_ncols=True, smoothing=0.1)
+            return
+        self.bar.update(done - self.bar.n)
+        if result is not None and not result.success:
+            self.bar.set_postfix_str(result.category[:30], refresh=False)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def run(args) -> int:
+    from ..core.design import load_design
+    from ..montecarlo import RunSpec, evaluate_many
+
+    check_run_arguments(args)
+    model = noise_model_from_args(args)
+    config = run_config(args)
+    if args.reference:
+        labels = list(REFERENCE_DESIGNS)
+        designs = [REFERENCE_DESIGNS[k] for k in labels]
+    else:
+        designs = [load_design(args.design)]
+        labels = [design_label(args.design)]
+    specs = [RunSpec(d, model, config, lab) for d, lab in zip(designs, labels)]
+    if args.results:
+        paths = {lab: Path(args.results) for lab in labels}
+    else:
+        paths = {lab: default_results_path(lab, args.seed) for lab in labels}
+
+    backend = backend_from_args(args)
+    results = []
+    t0 = time.perf_counter()
+    try:
+        # one batch per results file (a shared --results file: one batch for all designs)
+        groups: dict[Path, list] = {}
+        for spec in specs:
+            groups.setdefault(paths[spec.label], []).append(spec)
+        by_label = {}
+        for path, group in groups.items():
+            desc = group[0].label if len(group) == 1 else f"{len(group)} designs"
+            bar = Progress(desc, args.no_progress)
+            try:
+                for r in evaluate_many(group, args.samples, args.seed, backend, results_path=path,
+                                       resume=not args.fresh, progress=bar):
+                    by_label[r.label] = (r, path)
+            finally:
+                bar.close()
+        results = [by_label[lab] for lab in labels]
+    finally:
+        backend.close()
+    wall = time.perf_counter() - t0
+
+    if args.json:
+        out = []
+        for r, path in results:
+            d = r.to_dict(with_samples=args.per_sample)
+            d["results_file"] = str(path)
+            out.append(d)
+        print_json(out if args.reference else out[0])
+        return 0
+    print(results_table([r for r, _ in results]))
+    errs = sum(r.failures_by_reason.get("worker error", 0) for r, _ in results)
+    files = sorted({str(p) for _, p in results})
+    reused = sum(r.reused for r, _ in results)
+    print(f"\n{args.samples} samples per design, base seed {args.seed}, "
+          f"{backend.describe()}, {wall:.1f} s wall"
+          + (f" ({reused} samples read back from the results file)" if reused else ""))
+    print("P*_s interval: Wilson 95 %; mean T over all samples (closing never triggered: T = horizon)")
+    print("results file" + ("s" if len(files) > 1 else "") + ": " + ", ".join(files))
+    if errs:
+        print(f"WARNING: {errs} sample(s) failed with a worker error (see the results file)",
+              file=sys.stderr)
+    return 0
+
+
+def fmt(v, digits=2):
+    return "n/a" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{digits}f}"
+
+
+def failures_text(r) -> str:
+    if not r.failures_by_reason:
+        return "-"
+    return ", ".join(f"{k}: {v}" for k, v in r.failures_by_reason.items())
+
+
+def results_table(results) -> str:
+    """Rows like SPEC section 9's results table: design, m_a, mean T, P*_s [CI], N, failures."""
+    head = ["design", "m_a (kg)", "mean T (s)", "P*_s [95% CI]", "N", "failures"]
+    rows = [[r.label, fmt(r.mass), fmt(r.mean_completion_time),
+             f"{fmt(r.p_success, 3)} [{fmt(r.ci_low, 3)}, {fmt(r.ci_high, 3)}]",
+             str(r.n_samples), failures_text(r)] for r in results]
+    widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(head)]
+    right = {1, 2, 4}
+
+    def line(cells):
+        return "  ".join(c.rjust(w) if i in right else c.ljust(w)
+                         for i, (c, w) in enumerate(zip(cells, widths))).rstrip()
+
+    return "\n".join([line(head), line(["-" * w for w in widths])] + [line(r) for r in rows])

@@ -1,0 +1,104 @@
+"""Metrics and verdict of *received* states, with the core's functions (no ROS import).
+
+The monitor node and ``tethernet replay`` both see the episode only as a sequence of
+states (NetState messages).  :class:`StateMirror` is a :class:`CaptureSimulation` built
+from the same design, commands and configuration as the simulation's, but never advanced:
+each received state is loaded into its arrays, and then the core's own ``cqi()``,
+``locked_pairs``, ``divergence()``, ``end_step()`` and ``run_simulation`` result rules
+apply to it unchanged.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .core import dynamics as dyn
+from .core.config import SimConfig
+from .core.design import Design
+from .core.episode import CaptureSimulation, EpisodeResult, run_simulation
+from .core.metrics import CQITerms
+from .core.scenario import Actions, World, build_scenario
+
+
+class StateError(ValueError):
+    """A received state does not fit the episode's scenario (one line)."""
+
+
+class StateMirror:
+    def __init__(self, design: Design, actions: Actions, world: World, config: SimConfig):
+        self.design = design
+        self.config = config
+        self.sim = CaptureSimulation(build_scenario(design, actions, world, config))
+        dt = self.sim.dt
+        # run_simulation tests for divergence after every chunk of this many steps (and at
+        # the end step); a verdict on divergence is taken at those steps only, as there
+        metric_every = int(round(1.0 / (config.metric_rate * dt)))
+        state_every = (max(1, int(round(1.0 / (config.state_rate * dt))))
+                       if config.state_rate > 0 else 0)
+        self.check_every = metric_every if not state_every else math.gcd(metric_every, state_every)
+
+    @property
+    def dt(self) -> float:
+        return self.sim.dt
+
+    def load(self, st) -> None:
+        """Load a :class:`~tethernet_ros.nodes.convert.StateArrays` into the mirror."""
+        s = self.sim.s
+        if st.positions.shape != s.x.shape or st.velocities.shape != s.v.shape:
+            raise StateError(f"state of {st.positions.shape[0]} bodies; the scenario has "
+                             f"{s.x.shape[0]}")
+        if st.locked.shape != s.pair_locked.shape:
+            raise StateError(f"state with {st.locked.shape[0]} closing pairs; the scenario has "
+                             f"{s.pair_locked.shape[0]}")
+        s.x[:] = st.positions
+        s.v[:] = st.velocities
+        s.tgt_pos[:] = st.target_position
+        s.tgt_quat[:] = st.target_quaternion
+        s.tgt_vel[:] = st.target_velocity
+        s.tgt_omega[:] = st.target_omega
+        s.pair_locked[:] = st.locked
+        s.ev[dyn.E_STEP] = st.step
+        s.ev[dyn.E_CLOSING_ACTIVE] = 1 if st.closing_active else 0
+        s.ev[dyn.E_CLOSING_STEP] = int(round(st.closing_start_time / self.sim.dt)) \
+            if st.closing_active else -1
+
+    def terms(self) -> CQITerms | None:
+        """CQI terms of the loaded state (None if the state is not finite)."""
+        s = self.sim.s
+        if not (np.all(np.isfinite(s.x[s.net_nodes])) and np.all(np.isfinite(s.tgt_pos))):
+            return None
+        return self.sim.cqi()
+
+    @property
+    def locked_pairs(self) -> int:
+        return self.sim.locked_pairs
+
+    @property
+    def closing_active(self) -> bool:
+        return self.sim.closing_active
+
+    def verdict(self) -> EpisodeResult | None:
+        """The episode's result if the loaded state ends it (closing + settle time, the
+        horizon, or divergence at one of run_simulation's check steps), else None.
+        ``max_penetration`` is not observable from states (NaN)."""
+        sim = self.sim
+        end = sim.end_step()
+        at_end = sim.step >= end
+        if at_end or (sim.step > 0 and sim.step % self.check_every == 0):
+            reason = sim.divergence()
+            if reason:
+                return EpisodeResult(
+                    success=False, settled_cqi=math.nan, locked_pairs=sim.locked_pairs,
+                    closing_time=sim.closing_time if sim.closing_active else math.nan,
+                    completion_time=sim.time, mass=self.design.mass(self.config.density),
+                    failure_reason=reason, wall_time=0.0, seed=None, steps=sim.step,
+                    max_penetration=math.nan)
+        if not at_end:
+            return None
+        # the state is at its end step: run_simulation does no stepping and applies the
+        # core's result rules (closing never triggered / capture_verdict) to it
+        res = run_simulation(sim, record_trace=False)
+        res.wall_time = 0.0
+        res.max_penetration = math.nan
+        return res

@@ -1,0 +1,262 @@
+"""Capture service node: the RunCapture service, and the suite's bag recorder.
+
+Service     RunCapture (``service`` parameter, default /tethernet/run_capture).
+Publishes   EpisodeSetup (the validated request plus this node's SimConfig parameters).
+Subscribes  every suite topic, serialized (raw CDR), and writes it to the episode's bag.
+
+One request = one episode:
+  1. validate the request (design, noise settings, bag name); an invalid one gets
+     ``accepted = false`` and an error naming the field, and the node keeps serving;
+  2. check that the simulation, monitor and actuator nodes are up (graph matching);
+  3. open the bag (``<bag_dir>/<name>.partial`` with an INCOMPLETE marker), publish the
+     EpisodeSetup, and record everything until the simulation's EpisodeResult and the
+     monitor's verdict have arrived; a simulation that stops publishing states for
+     ``stall_timeout`` s (or never starts within ``start_timeout`` s) aborts the episode
+     with a one-line error, and the bag stays marked incomplete;
+  4. close the bag (metadata.yaml, rename to ``<bag_dir>/<name>``), check that the
+     monitor's verdict equals the simulation's result exactly, and respond with the
+     result and the bag path.
+"""
+from __future__ import annotations
+
+import importlib
+import re
+import secrets
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+
+from ..bags import BagError, BagWriter, qos_profile
+from ..core.config import ConfigError, SimConfig
+from . import common, convert
+
+NODE = "capture_node"
+BAG_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_.\-]{0,199}")
+
+
+def msg_class(type_name: str):
+    pkg, _, name = type_name.split("/")
+    return getattr(importlib.import_module(f"{pkg}.msg"), name)
+
+
+@dataclass
+class Episode:
+    episode_id: str
+    writer: BagWriter | None
+    started: float
+    last_state: float | None = None
+    n_states: int = 0
+    n_metrics: int = 0
+    last_message: float = 0.0
+    result: object = None
+    verdict: object = None
+    event: threading.Event = field(default_factory=threading.Event)
+
+
+class CaptureNode(Node):
+    def __init__(self):
+        from tethernet_msgs.msg import EpisodeSetup
+        from tethernet_msgs.srv import RunCapture
+
+        super().__init__(NODE)
+        common.declare(self, NODE)
+        self.sim_config()  # a bad configuration stops the node at start, with one line
+        self._lock = threading.Lock()
+        self.episode: Episode | None = None
+        self.topic_names = {k: common.topic(self, k) for k in common.TOPICS}
+        depth = 1000
+        self.pub_setup = self.create_publisher(EpisodeSetup, self.topic_names["setup"],
+                                               common.command_qos())
+        group = ReentrantCallbackGroup()
+        self.qos_offered = {}
+        for key, type_name in common.TOPIC_TYPES.items():
+            big = key in ("net_state", "target_pose", "markers", "metrics", "clock")
+            qos = common.state_qos(depth) if big else common.command_qos()
+            self.qos_offered[key] = qos_profile(depth if big else 10)
+            self.create_subscription(msg_class(type_name), self.topic_names[key],
+                                     lambda data, k=key: self.on_raw(k, data), qos, raw=True,
+                                     callback_group=group)
+        self.create_service(RunCapture, common.param(self, "service"), self.on_request,
+                            callback_group=MutuallyExclusiveCallbackGroup())
+        self.get_logger().info(f"ready: service {common.param(self, 'service')}, bags in "
+                               f"{Path(common.param(self, 'bag_dir')).resolve()}")
+
+    # -- configuration ---------------------------------------------------------------------
+    def sim_config(self) -> SimConfig:
+        import json
+
+        text = common.param(self, "sim_config") or "{}"
+        try:
+            data = json.loads(text)
+        except ValueError:
+            raise ConfigError(f"parameter 'sim_config': not a JSON object: {text!r}") from None
+        if not isinstance(data, dict):
+            raise ConfigError("parameter 'sim_config': must be a JSON object of SimConfig fields")
+        data["settle_time"] = float(common.param(self, "settle_time"))
+        data["horizon"] = float(common.param(self, "horizon"))
+        return SimConfig.from_dict(data)
+
+    # -- recorder --------------------------------------------------------------------------
+    def on_raw(self, key: str, data: bytes) -> None:
+        ep = self.episode
+        if ep is None:
+            return
+        now_ns = time.time_ns()
+        if ep.writer is not None:
+            ep.writer.write(self.topic_names[key], data, now_ns)
+        now = time.monotonic()
+        with self._lock:
+            ep.last_message = now
+            if key == "net_state":
+                ep.n_states += 1
+                ep.last_state = now
+            elif key == "metrics":
+                ep.n_metrics += 1
+            elif key in ("result", "verdict"):
+                from tethernet_msgs.msg import EpisodeResult
+
+                msg = deserialize_message(data, EpisodeResult)
+                if msg.episode_id == ep.episode_id:
+                    setattr(ep, key, msg)
+                    if ep.result is not None and ep.verdict is not None:
+                        ep.event.set()
+
+    # -- service ---------------------------------------------------------------------------
+    def on_request(self, request, response):
+        log = self.get_logger()
+        response.accepted = False
+        try:
+            design = convert.design_from_msg(request.design)
+            noise = None if request.nominal else convert.noise_model_from_msg(request.noise)
+            name = request.bag_name
+            if name and not BAG_NAME.fullmatch(name):
+                raise convert.RequestError("bag_name", f"got {name!r}; use up to 200 letters, "
+                                           "digits, '_', '-' or '.', not starting with '.'")
+            bag_dir = Path(common.param(self, "bag_dir"))
+            if name and request.record_bag and ((bag_dir / name).exists()
+                                                or (bag_dir / (name + ".partial")).exists()):
+                raise convert.RequestError("bag_name", f"a bag {str(bag_dir / name)!r} already exists")
+        except convert.RequestError as exc:
+            response.error = str(exc)
+            log.warning(f"request rejected: {exc}")
+            return response
+        try:
+            config = self.sim_config()
+        except (ConfigError, ValueError) as exc:
+            response.error = f"capture node configuration: {exc}"
+            return response
+        missing = self.missing_nodes(float(common.param(self, "ready_timeout")))
+        if missing:
+            response.error = f"suite not ready: {missing}"
+            log.error(response.error)
+            return response
+        seed = None if request.nominal else int(request.seed)
+        episode_id = name or time.strftime("capture_%Y%m%d-%H%M%S_") + \
+            ("nominal" if seed is None else f"seed{seed}") + "_" + secrets.token_hex(2)
+        writer = None
+        if request.record_bag:
+            try:
+                writer = BagWriter(bag_dir / episode_id, compression=common.param(self, "compression"),
+                                   custom_data={"tethernet.episode_id": episode_id,
+                                                "tethernet.design": str(design.to_dict()),
+                                                "tethernet.seed": "nominal" if seed is None else str(seed)})
+                for key, type_name in common.TOPIC_TYPES.items():
+                    writer.add_topic(self.topic_names[key], type_name, self.qos_offered[key])
+            except (BagError, OSError) as exc:
+                response.error = f"bag_name: cannot record the bag: {exc}"
+                return response
+        response.accepted = True
+        ep = Episode(episode_id=episode_id, writer=writer, started=time.monotonic())
+        self.episode = ep
+        log.info(f"episode {episode_id!r}: {'nominal' if seed is None else f'seed {seed}'}")
+        try:
+            self.pub_setup.publish(convert.setup_msg(episode_id, design, seed, noise, config,
+                                                     time.time()))
+            error = self.wait_for_end(ep)
+        except Exception as exc:  # noqa: BLE001 - reported in the response
+            error = f"{type(exc).__name__}: {exc}"
+        finally:
+            self.episode = None
+        if error:
+            response.error = error
+            if writer is not None:
+                response.bag_path = str(writer.abort(error).resolve())
+            log.error(f"episode {episode_id!r}: {error}")
+            return response
+        if writer is not None:
+            response.bag_path = str(writer.close().resolve())
+        response.result = ep.result
+        mismatch = convert.compare_results(ep.result, ep.verdict)
+        if mismatch:
+            response.error = f"monitor verdict disagrees with the simulation: {mismatch}"
+            log.error(response.error)
+        return response
+
+    def wait_for_end(self, ep: Episode) -> str:
+        """'' once the result and the verdict are in (and late messages drained), else
+        the reason the episode failed."""
+        start_to = float(common.param(self, "start_timeout"))
+        stall_to = float(common.param(self, "stall_timeout"))
+        total_to = float(common.param(self, "episode_timeout"))
+        sim = self.topic_names["net_state"]
+        while not ep.event.wait(0.05):
+            now = time.monotonic()
+            if ep.last_state is None and now - ep.started > start_to:
+                return (f"timed out: no state on {sim} within {start_to:g} s of the request "
+                        "(is sim_node running?)")
+            if ep.last_state is not None and now - ep.last_state > stall_to:
+                if ep.result is not None:
+                    return (f"timed out: the monitor gave no verdict within {stall_to:g} s of the "
+                            "last state (is monitor_node running?)")
+                return (f"timed out: the simulation stopped publishing states on {sim} for "
+                        f"{stall_to:g} s after {ep.n_states} states (sim_node died or hung)")
+            if now - ep.started > total_to:
+                return f"timed out: the episode took longer than episode_timeout = {total_to:g} s"
+        # late messages (markers, metrics of the last state) may still be on their way
+        drain = float(common.param(self, "drain_time"))
+        deadline = time.monotonic() + max(10 * drain, 2.0)
+        while time.monotonic() < deadline:
+            with self._lock:
+                quiet = time.monotonic() - ep.last_message > drain
+                settled = ep.n_metrics >= ep.n_states
+            if quiet and settled:
+                break
+            time.sleep(0.02)
+        return ""
+
+    def missing_nodes(self, timeout: float) -> str:
+        """'' when every topic of the suite has its subscribers and publishers, else what
+        is missing (after waiting up to ``timeout`` s)."""
+        deadline = time.monotonic() + timeout
+        while True:
+            missing = []
+            for key, n in common.REQUIRED_SUBSCRIBERS.items():
+                have = self.count_subscribers(self.topic_names[key])
+                if have < n:
+                    missing.append(f"{self.topic_names[key]} has {have} of {n} subscribers")
+            for key in common.REQUIRED_PUBLISHERS:
+                if self.count_publishers(self.topic_names[key]) < 1:
+                    missing.append(f"no publisher on {self.topic_names[key]}")
+            if not missing:
+                return ""
+            if time.monotonic() > deadline:
+                return "; ".join(missing) + " (start sim_node, monitor_node and actuator_node)"
+            time.sleep(0.05)
+
+    def close(self) -> None:
+        ep = self.episode
+        if ep is not None and ep.writer is not None:
+            ep.writer.abort("the capture node shut down during the episode")
+
+
+def main(args=None) -> int:
+    return common.run_node(CaptureNode, args, threads=4)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,118 @@
+"""Capture-monitor node: CQI terms, locked pairs and the verdict from received states.
+
+Subscribes  EpisodeSetup, LaunchCommand, ClosingCommand (to build the episode's
+            StateMirror: same design, commands and configuration as the simulation) and
+            NetState.
+Publishes   CaptureMetrics for every state, and the monitor's EpisodeResult (topic
+            ``verdict``) when a state ends the episode: settle time after closing, the
+            horizon, or divergence.
+
+All numbers come from the core through :class:`tethernet_ros.monitoring.StateMirror`
+(the one CQI function, the core's success rule); none is re-implemented here.
+"""
+from __future__ import annotations
+
+from collections import deque
+
+from rclpy.node import Node
+
+from ..monitoring import StateMirror
+from . import common, convert
+
+NODE = "monitor_node"
+MAX_PENDING = 10000
+
+
+class MonitorNode(Node):
+    def __init__(self):
+        from tethernet_msgs.msg import CaptureMetrics, ClosingCommand, EpisodeResult, \
+            EpisodeSetup, LaunchCommand, NetState
+
+        super().__init__(NODE)
+        common.declare(self, NODE)
+        t = lambda k: common.topic(self, k)  # noqa: E731
+        sq, cq = common.state_qos(int(common.param(self, "queue_depth"))), common.command_qos()
+        self.frame_id = common.param(self, "frame_id")
+        self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"), sq)
+        self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), cq)
+        self.setup = None
+        self.launch = None
+        self.closing = None
+        self.mirror: StateMirror | None = None
+        self.decided = False
+        self.pending: deque = deque(maxlen=MAX_PENDING)
+        self.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
+        self.create_subscription(LaunchCommand, t("launch_command"), self.on_launch, cq)
+        self.create_subscription(ClosingCommand, t("closing_command"), self.on_closing, cq)
+        self.create_subscription(NetState, t("net_state"), self.on_state, sq)
+        self.get_logger().info("ready")
+
+    def on_setup(self, msg) -> None:
+        try:
+            self.setup = convert.setup_from_msg(msg)
+        except Exception as exc:  # noqa: BLE001
+            self.get_logger().error(f"episode {msg.episode_id!r} rejected: {exc}")
+            self.setup = None
+        self.launch = self.closing = self.mirror = None
+        self.decided = False
+        self.pending.clear()
+
+    def on_launch(self, msg) -> None:
+        if self.setup is not None and convert.same_stamp(msg.header, self.setup.stamp):
+            self.launch = msg
+            self._maybe_build()
+
+    def on_closing(self, msg) -> None:
+        if self.setup is not None and convert.same_stamp(msg.header, self.setup.stamp):
+            self.closing = msg
+            self._maybe_build()
+
+    def _maybe_build(self) -> None:
+        if self.mirror is not None or self.launch is None or self.closing is None:
+            return
+        try:
+            actions, world = convert.actions_world_from_msgs(self.launch, self.closing)
+            self.mirror = StateMirror(self.setup.design, actions, world, self.setup.config)
+        except Exception as exc:  # noqa: BLE001
+            self.get_logger().error(f"episode {self.setup.episode_id!r}: {exc}")
+            return
+        while self.pending:
+            self._process(self.pending.popleft())
+
+    def on_state(self, msg) -> None:
+        if self.mirror is None:
+            # a state can overtake the commands (different writers): keep it for later
+            if self.setup is not None:
+                self.pending.append(msg)
+            return
+        self._process(msg)
+
+    def _process(self, msg) -> None:
+        mirror = self.mirror
+        try:
+            mirror.load(convert.state_from_msg(msg))
+        except Exception as exc:  # noqa: BLE001
+            self.get_logger().error(f"state at step {msg.step} ignored: {exc}")
+            return
+        self.pub_metrics.publish(convert.metrics_msg(mirror.terms(), msg.sim_time,
+                                                     mirror.locked_pairs, mirror.closing_active,
+                                                     self.frame_id))
+        if self.decided:
+            return
+        result = mirror.verdict()
+        if result is None:
+            return
+        self.decided = True
+        result.seed = self.setup.seed
+        self.pub_verdict.publish(convert.episode_result_msg(result, self.setup.episode_id,
+                                                            self.setup.seed is None, msg.sim_time))
+        self.get_logger().info(f"episode {self.setup.episode_id!r}: verdict "
+                               f"{'success' if result.success else 'failure'} at t = {msg.sim_time:.3f} s")
+
+
+def main(args=None) -> int:
+    return common.run_node(MonitorNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,209 @@
+"""Simulation node: owns the scenario and the numba kernel of one episode at a time.
+
+Subscribes  EpisodeSetup (design, seed, configuration), LaunchCommand and ClosingCommand
+            (the actuator's noisy actions and target placement; matched to the setup by
+            header stamp).
+Publishes   NetState, target PoseStamped and /clock every ``publish_rate`` Hz of simulated
+            time, a MarkerArray every ``marker_rate`` Hz, and at the end the simulation's
+            EpisodeResult.
+
+The episode is run by the core's ``run_simulation`` on a CaptureSimulation whose
+``advance`` publishes at the publish steps on the way; ``advance`` is chunking-invariant,
+so the states and the result are bit for bit those of ``tethernet capture --via library``.
+The closing trigger is evaluated inside the kernel from the ClosingCommand's threshold,
+which arrives before the first step, so nothing depends on message timing.
+"""
+from __future__ import annotations
+
+import math
+import threading
+import time
+
+from rclpy.node import Node
+
+from ..core.episode import CaptureSimulation, run_simulation
+from ..core.scenario import build_scenario
+from . import common, convert
+
+NODE = "sim_node"
+
+
+class EpisodeAborted(Exception):
+    pass
+
+
+class PublishingSimulation(CaptureSimulation):
+    """CaptureSimulation that calls ``on_publish(self)`` at every multiple of ``every``
+    steps while advancing (splitting advance() there does not change the result)."""
+
+    def __init__(self, scenario, every: int, on_publish, should_stop):
+        super().__init__(scenario)
+        self.every = max(1, int(every))
+        self.on_publish = on_publish
+        self.should_stop = should_stop
+        self.last_published = -1
+
+    def advance(self, n_steps: int) -> None:
+        target = self.step + n_steps
+        while self.step < target:
+            if self.should_stop():
+                raise EpisodeAborted()
+            nxt = min(target, (self.step // self.every + 1) * self.every)
+            super().advance(nxt - self.step)
+            if self.step % self.every == 0:
+                self.publish()
+
+    def publish(self) -> None:
+        if self.step != self.last_published:
+            self.last_published = self.step
+            self.on_publish(self)
+
+
+class SimNode(Node):
+    def __init__(self):
+        from tethernet_msgs.msg import ClosingCommand, EpisodeResult, EpisodeSetup, \
+            LaunchCommand, NetState
+        from geometry_msgs.msg import PoseStamped
+        from rosgraph_msgs.msg import Clock
+        from visualization_msgs.msg import MarkerArray
+
+        super().__init__(NODE)
+        self.node = node = self
+        common.declare(node, NODE)
+        p = lambda k: common.param(node, k)  # noqa: E731
+        self.frame_id = p("frame_id")
+        if p("warm_up"):
+            self._warm_up()
+        depth = int(p("queue_depth"))
+        sq, cq = common.state_qos(depth), common.command_qos()
+        t = lambda k: common.topic(node, k)  # noqa: E731
+        self.pub_state = node.create_publisher(NetState, t("net_state"), sq)
+        self.pub_pose = node.create_publisher(PoseStamped, t("target_pose"), sq)
+        self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
+        self.pub_markers = node.create_publisher(MarkerArray, t("markers"), sq)
+        self.pub_result = node.create_publisher(EpisodeResult, t("result"), cq)
+        self._lock = threading.Lock()
+        self._setup = None
+        self._launch = None
+        self._closing = None
+        self._worker: threading.Thread | None = None
+        self._stop = threading.Event()
+        node.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
+        node.create_subscription(LaunchCommand, t("launch_command"), self.on_launch, cq)
+        node.create_subscription(ClosingCommand, t("closing_command"), self.on_closing, cq)
+        node.get_logger().info("ready")
+
+    # -- parameters read at each episode (they may be changed between episodes) ----------
+    def _p(self, key):
+        return common.param(self.node, key)
+
+    @staticmethod
+    def _warm_up() -> None:
+        """Load (or compile) the numba kernels now rather than in the first episode."""
+        from ..core.design import REFERENCE_DESIGNS
+        from ..core.scenario import scenario_for
+
+        CaptureSimulation(scenario_for(REFERENCE_DESIGNS["baseline"])).advance(1)
+
+    # -- callbacks ---------------------------------------------------------------------
+    def on_setup(self, msg) -> None:
+        log = self.node.get_logger()
+        with self._lock:
+            if self._worker is not None and self._worker.is_alive():
+                log.warning(f"episode {msg.episode_id!r} ignored: an episode is running")
+                return
+            try:
+                self._setup = convert.setup_from_msg(msg)
+            except Exception as exc:  # noqa: BLE001 - a bad setup is logged, not fatal
+                log.error(f"episode {msg.episode_id!r} rejected: {exc}")
+                self._setup = None
+                return
+            self._launch = self._closing = None
+        self._maybe_start()
+
+    def on_launch(self, msg) -> None:
+        with self._lock:
+            if self._setup is not None and convert.same_stamp(msg.header, self._setup.stamp):
+                self._launch = msg
+        self._maybe_start()
+
+    def on_closing(self, msg) -> None:
+        with self._lock:
+            if self._setup is not None and convert.same_stamp(msg.header, self._setup.stamp):
+                self._closing = msg
+        self._maybe_start()
+
+    def _maybe_start(self) -> None:
+        with self._lock:
+            if self._setup is None or self._launch is None or self._closing is None:
+                return
+            if self._worker is not None and self._worker.is_alive():
+                return
+            setup, launch, closing = self._setup, self._launch, self._closing
+            self._setup = self._launch = self._closing = None
+            self._worker = threading.Thread(target=self._run_episode, args=(setup, launch, closing),
+                                            name="episode", daemon=True)
+            self._worker.start()
+
+    # -- the episode -------------------------------------------------------------------
+    def _run_episode(self, setup, launch, closing) -> None:
+        log = self.node.get_logger()
+        try:
+            actions, world = convert.actions_world_from_msgs(launch, closing)
+            scenario = build_scenario(setup.design, actions, world, setup.config)
+        except Exception as exc:  # noqa: BLE001
+            log.error(f"episode {setup.episode_id!r}: cannot build the scenario: {exc}")
+            return
+        dt = scenario.dt
+        rate = float(self._p("publish_rate"))
+        every = max(1, int(round(1.0 / (rate * dt)))) if rate > 0 else 1 << 62
+        mrate = float(self._p("marker_rate"))
+        marker_every = max(1, int(round(1.0 / (mrate * dt)))) if mrate > 0 else 0
+        rtf = float(self._p("real_time_factor"))
+        markers = convert.MarkerBuilder(scenario, self.frame_id)
+        t_wall0 = time.monotonic()
+
+        def publish(sim, final: bool = False):
+            if rtf > 0:
+                delay = t_wall0 + sim.time / rtf - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            self.pub_clock.publish(convert.clock_msg(sim.time))
+            self.pub_state.publish(convert.net_state_msg(sim, self.frame_id))
+            self.pub_pose.publish(convert.target_pose_msg(sim, self.frame_id))
+            if marker_every and (final or sim.step % marker_every == 0):
+                self.pub_markers.publish(markers.build(sim))
+
+        sim = PublishingSimulation(scenario, every, publish, self._stop.is_set)
+        n_subs = int(self._p("min_state_subscribers"))
+        if not common.wait_for_subscribers(self.pub_state, n_subs, float(self._p("match_timeout"))):
+            log.warning(f"starting with {self.pub_state.get_subscription_count()} state "
+                        f"subscriber(s) (expected {n_subs})")
+        log.info(f"episode {setup.episode_id!r}: dt = {dt:.3e} s, publishing every {every} steps")
+        try:
+            sim.publish()                                   # the initial state
+            result = run_simulation(sim, record_trace=False)
+            sim.on_publish = lambda s: publish(s, final=True)
+            sim.publish()                                   # the final state (if not yet)
+        except EpisodeAborted:
+            log.warning(f"episode {setup.episode_id!r} aborted at t = {sim.time:.3f} s")
+            return
+        result.seed = setup.seed
+        self.pub_result.publish(convert.episode_result_msg(result, setup.episode_id,
+                                                           setup.seed is None, sim.time))
+        verdict = "success" if result.success else f"failure ({result.failure_reason})"
+        log.info(f"episode {setup.episode_id!r} done: {verdict}, T = {result.completion_time:.3f} s, "
+                 f"wall {result.wall_time:.2f} s")
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._worker is not None:
+            self._worker.join(timeout=5.0)
+
+
+def main(args=None) -> int:
+    return common.run_node(SimNode, args, threads=2)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
