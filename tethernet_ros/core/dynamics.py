@@ -263,44 +263,72 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         quat_to_matrix_into(tgt_quat, R)
         ox, oy, oz = tgt_omega[0], tgt_omega[1], tgt_omega[2]
         # ---- 1a. grid threads (tension-only Kelvin-Voigt), branch-free and vectorised ----
+        # (row views indexed by the loop counter: numba then needs no negative-index
+        # wrap-around, and LLVM vectorises the loops)
         for i in range(ng):
+            r0 = i * ng
+            rx_ = X[r0:r0 + ng]
+            ry_ = Y[r0:r0 + ng]
+            rz_ = Z[r0:r0 + ng]
+            rvx = VX[r0:r0 + ng]
+            rvy = VY[r0:r0 + ng]
+            rvz = VZ[r0:r0 + ng]
+            kk = grid_kh[i]
+            cc = grid_ch[i]
+            h0 = i * (ng + 1)
+            hx = HX[h0:h0 + ng + 1]
+            hy = HY[h0:h0 + ng + 1]
+            hz = HZ[h0:h0 + ng + 1]
             for j in range(ng - 1):
-                a = i * ng + j
-                b = a + 1
-                dx = X[b] - X[a]
-                dy = Y[b] - Y[a]
-                dz = Z[b] - Z[a]
+                dx = rx_[j + 1] - rx_[j]
+                dy = ry_[j + 1] - ry_[j]
+                dz = rz_[j + 1] - rz_[j]
                 length = np.sqrt(dx * dx + dy * dy + dz * dz)
                 C = length - grid_rest
                 inv = 1.0 / max(length, 1e-12)
-                cdot = (dx * (VX[b] - VX[a]) + dy * (VY[b] - VY[a]) + dz * (VZ[b] - VZ[a])) * inv
-                F = grid_kh[i, j] * C + grid_ch[i, j] * cdot
+                cdot = (dx * (rvx[j + 1] - rvx[j]) + dy * (rvy[j + 1] - rvy[j]) + dz * (rvz[j + 1] - rvz[j])) * inv
+                F = kk[j] * C + cc[j] * cdot
                 F = F if C > 0.0 else 0.0
                 F = F if F > 0.0 else 0.0       # a thread never pushes, not even its damper
                 s_ = F * inv
-                q = i * (ng + 1) + j + 1
-                HX[q] = s_ * dx
-                HY[q] = s_ * dy
-                HZ[q] = s_ * dz
+                hx[j + 1] = s_ * dx
+                hy[j + 1] = s_ * dy
+                hz[j + 1] = s_ * dz
         for i in range(ng - 1):
+            r0 = i * ng
+            r1 = r0 + ng
+            xa = X[r0:r0 + ng]
+            ya = Y[r0:r0 + ng]
+            za = Z[r0:r0 + ng]
+            vxa = VX[r0:r0 + ng]
+            vya = VY[r0:r0 + ng]
+            vza = VZ[r0:r0 + ng]
+            xb = X[r1:r1 + ng]
+            yb = Y[r1:r1 + ng]
+            zb = Z[r1:r1 + ng]
+            vxb = VX[r1:r1 + ng]
+            vyb = VY[r1:r1 + ng]
+            vzb = VZ[r1:r1 + ng]
+            kk = grid_kv[i]
+            cc = grid_cv[i]
+            ux = UX[r1:r1 + ng]
+            uy = UY[r1:r1 + ng]
+            uz = UZ[r1:r1 + ng]
             for j in range(ng):
-                a = i * ng + j
-                b = a + ng
-                dx = X[b] - X[a]
-                dy = Y[b] - Y[a]
-                dz = Z[b] - Z[a]
+                dx = xb[j] - xa[j]
+                dy = yb[j] - ya[j]
+                dz = zb[j] - za[j]
                 length = np.sqrt(dx * dx + dy * dy + dz * dz)
                 C = length - grid_rest
                 inv = 1.0 / max(length, 1e-12)
-                cdot = (dx * (VX[b] - VX[a]) + dy * (VY[b] - VY[a]) + dz * (VZ[b] - VZ[a])) * inv
-                F = grid_kv[i, j] * C + grid_cv[i, j] * cdot
+                cdot = (dx * (vxb[j] - vxa[j]) + dy * (vyb[j] - vya[j]) + dz * (vzb[j] - vza[j])) * inv
+                F = kk[j] * C + cc[j] * cdot
                 F = F if C > 0.0 else 0.0
                 F = F if F > 0.0 else 0.0
                 s_ = F * inv
-                q = (i + 1) * ng + j
-                UX[q] = s_ * dx
-                UY[q] = s_ * dy
-                UZ[q] = s_ * dz
+                ux[j] = s_ * dx
+                uy[j] = s_ * dy
+                uz[j] = s_ * dz
         # ---- 1b. other threads: corner threads, tether ---------------------------------
         for m in range(n_links):
             EF[m, 0] = 0.0
@@ -328,13 +356,24 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         # ---- 2. gather per body in a mirror-invariant order ----------------------------
         # (left + right) + (down + up) for grid nodes: each pair's sum is commutative
         for i in range(ng):
+            r0 = i * ng
+            h0 = i * (ng + 1)
+            fx = FX[r0:r0 + ng]
+            fy = FY[r0:r0 + ng]
+            fz = FZ[r0:r0 + ng]
+            hx = HX[h0:h0 + ng + 1]
+            hy = HY[h0:h0 + ng + 1]
+            hz = HZ[h0:h0 + ng + 1]
+            dxu = UX[r0:r0 + ng]
+            dyu = UY[r0:r0 + ng]
+            dzu = UZ[r0:r0 + ng]
+            uxu = UX[r0 + ng:r0 + 2 * ng]
+            uyu = UY[r0 + ng:r0 + 2 * ng]
+            uzu = UZ[r0 + ng:r0 + 2 * ng]
             for j in range(ng):
-                a = i * ng + j
-                qh = i * (ng + 1) + j
-                qv = i * ng + j
-                FX[a] = (HX[qh + 1] - HX[qh]) + (UX[qv + ng] - UX[qv])
-                FY[a] = (HY[qh + 1] - HY[qh]) + (UY[qv + ng] - UY[qv])
-                FZ[a] = (HZ[qh + 1] - HZ[qh]) + (UZ[qv + ng] - UZ[qv])
+                fx[j] = (hx[j + 1] - hx[j]) + (uxu[j] - dxu[j])
+                fy[j] = (hy[j + 1] - hy[j]) + (uyu[j] - dyu[j])
+                fz[j] = (hz[j + 1] - hz[j]) + (uzu[j] - dzu[j])
         for a in range(n_grid, N):
             FX[a] = 0.0
             FY[a] = 0.0
