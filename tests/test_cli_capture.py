@@ -88,3 +88,10 @@ def test_bad_config_file(tmp_path):
     f.write_text("dt_safety: 5\n")
     out = tethernet("capture", "--design", "time-min", "--config", str(f))
     assert out.returncode == 2 and "dt_safety" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_top_level_help_lists_every_command():
+    out = tethernet("--help")
+    assert out.returncode == 0, out.stderr
+    for name in ("capture", "validate", "sensitivity", "figures", "replay", "optimize"):
+        assert name in out.stdout

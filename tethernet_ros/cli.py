@@ -35,7 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
             if exc.name and exc.name.startswith("tethernet_ros.commands"):
                 continue  # command not built yet
             raise
-        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
+        p = sub.add_parser(mod.NAME, help=text, description=text)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
