@@ -40,7 +40,6 @@ import json
 import math
 import os
 import time
-import traceback
 from collections import Counter, deque
 from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
@@ -62,6 +61,14 @@ TRACE_FIELDS = ("time", "cqi", "locked_pairs")
 FAULT_ENV = "TETHERNET_MC_FAULT"
 
 
+def default_workers() -> int:
+    """CPU cores this process may run on (the default pool size)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
 def sample_seed(base_seed: int, index: int) -> int:
     """Noise seed of sample ``index`` (0-based) under ``base_seed`` (both integers >= 0)."""
     if base_seed < 0 or index < 0:
@@ -72,12 +79,14 @@ def sample_seed(base_seed: int, index: int) -> int:
 # --------------------------------------------------------------------------------------
 # failure categories
 # --------------------------------------------------------------------------------------
-def failure_category(reason: str, config: SimConfig | None = None) -> str:
-    """Group a failure reason into a category for counting ('' for a success).
+def failure_category(reason: str, config: SimConfig | None = None, settled_cqi: float | None = None,
+                     locked_pairs: int | None = None, closing_time: float | None = None) -> str:
+    """Group a failed episode into a category for counting ('' when ``reason`` is empty).
 
-    Categories: 'closing never triggered', 'diverged', 'settled CQI > 2',
-    'locked pairs < 10', 'settled CQI > 2 and locked pairs < 10', 'settled CQI not finite',
-    'worker error', 'other' (thresholds from the config).
+    Categories: 'worker error', 'diverged', 'closing never triggered', 'settled CQI > 2',
+    'locked pairs < 10', 'settled CQI > 2 and locked pairs < 10' (thresholds from the
+    config), 'other'.  The numbers (settled CQI, n_L, closing time; NaN closing time = never
+    triggered) decide where given; otherwise the reason text does.
     """
     if not reason:
         return ""
@@ -85,22 +94,26 @@ def failure_category(reason: str, config: SimConfig | None = None) -> str:
     r = reason.lower()
     if r.startswith("worker error"):
         return "worker error"
-    if "closing never triggered" in r:
-        return "closing never triggered"
     if "diverged" in r:
         return "diverged"
-    if "not finite" in r:
-        return "settled CQI not finite"
-    cqi = f"settled CQI > {cfg.success_cqi:g}"
-    pairs = f"locked pairs < {cfg.success_locked_pairs}"
-    has_cqi = "settled cqi" in r and ">" in r
-    has_pairs = "locked pairs" in r
-    if has_cqi and has_pairs:
-        return f"{cqi} and {pairs}"
-    if has_cqi:
-        return cqi
-    if has_pairs:
-        return pairs
+    cqi_label = f"settled CQI > {cfg.success_cqi:g}"
+    pairs_label = f"locked pairs < {cfg.success_locked_pairs}"
+    if closing_time is not None or settled_cqi is not None:
+        if closing_time is not None and not math.isfinite(closing_time):
+            return "closing never triggered"
+        bad_cqi = settled_cqi is not None and not (settled_cqi <= cfg.success_cqi)
+        bad_pairs = locked_pairs is not None and locked_pairs < cfg.success_locked_pairs
+    else:
+        if "closing never triggered" in r:
+            return "closing never triggered"
+        bad_cqi = ("cqi" in r and ">" in r) or "not finite" in r
+        bad_pairs = "locked pairs" in r
+    if bad_cqi and bad_pairs:
+        return f"{cqi_label} and {pairs_label}"
+    if bad_cqi:
+        return cqi_label
+    if bad_pairs:
+        return pairs_label
     return "other"
 
 
@@ -131,7 +144,8 @@ class SampleResult:
 
     category: failure category ('' on success, see :func:`failure_category`);
     trace: {'time', 'cqi', 'locked_pairs'} lists at the metric rate, when requested;
-    attempts: tries it took (2 after a retry); wall_time: worker time (s).
+    attempts: tries it took (2 after a retry); wall_time, cpu_time: the episode's wall-clock
+    and process CPU time in its worker (s).
     """
 
     key: str
@@ -148,6 +162,7 @@ class SampleResult:
     steps: int = 0
     max_penetration: float = math.nan
     wall_time: float = 0.0
+    cpu_time: float = 0.0
     attempts: int = 1
     trace: dict | None = None
 
@@ -173,7 +188,7 @@ class SampleResult:
         names = {f for f in cls.__dataclass_fields__}
         d = {k: v for k, v in rec.items() if k in names}
         for k in ("settled_cqi", "closing_time", "completion_time", "mass", "max_penetration",
-                  "wall_time"):
+                  "wall_time", "cpu_time"):
             if d.get(k) is None:
                 d[k] = math.nan
         return cls(**d)
@@ -185,7 +200,9 @@ def run_task(task: EpisodeTask) -> SampleResult:
 
     _fault_hook(task)
     sample = task.noise_model.sample(task.seed)
+    cpu0 = time.process_time()
     r = run_episode(task.design, sample, task.config, record_trace=task.record_trace)
+    cpu = time.process_time() - cpu0
     trace = None
     if task.record_trace and r.trace is not None:
         trace = {f: list(getattr(r.trace, f)) for f in TRACE_FIELDS}
@@ -194,8 +211,10 @@ def run_task(task: EpisodeTask) -> SampleResult:
         settled_cqi=float(r.settled_cqi), locked_pairs=int(r.locked_pairs),
         closing_time=float(r.closing_time), completion_time=float(r.completion_time),
         mass=float(r.mass), failure_reason=r.failure_reason,
-        category=failure_category(r.failure_reason, task.config), steps=int(r.steps),
-        max_penetration=float(r.max_penetration), wall_time=float(r.wall_time),
+        category=failure_category(r.failure_reason, task.config, float(r.settled_cqi),
+                                  int(r.locked_pairs), float(r.closing_time)),
+        steps=int(r.steps),
+        max_penetration=float(r.max_penetration), wall_time=float(r.wall_time), cpu_time=cpu,
         attempts=task.attempt + 1, trace=trace)
 
 
@@ -336,7 +355,7 @@ class ProcessPoolBackend(EpisodeBackend):
     name = "process pool"
 
     def __init__(self, workers: int | None = None, context: str = "spawn", warm: bool = True):
-        self.workers = int(workers or os.cpu_count() or 1)
+        self.workers = int(workers or default_workers())
         if self.workers < 1:
             raise ValueError("workers must be >= 1")
         self.context = context
@@ -394,6 +413,8 @@ class ProcessPoolBackend(EpisodeBackend):
                     exc = fut.exception()
                     if exc is None:
                         yield Outcome(task, fut.result())
+                    elif isinstance(exc, KeyboardInterrupt):  # Ctrl-C reached the workers too
+                        raise KeyboardInterrupt
                     elif isinstance(exc, BrokenProcessPool):
                         yield Outcome(task, error="worker process died (BrokenProcessPool)",
                                       crashed=True)
@@ -424,7 +445,7 @@ class DaskBackend(EpisodeBackend):
 
     def __init__(self, scheduler: str | None = None, workers: int | None = None):
         self.scheduler = None if scheduler in (None, "", "local") else scheduler
-        self._n = int(workers or os.cpu_count() or 1)
+        self._n = int(workers or default_workers())
         self._client = None
         self._cluster = None
 

@@ -1,0 +1,169 @@
+"""Results table (CSV + Markdown) and convergence-history figure of an optimisation run."""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .cases import P_SUCCESS, Case
+
+__all__ = ["write_results", "plot_convergence", "results_markdown"]
+
+_CSV_FIELDS = ["case", "design", "evaluation", "m_c", "L_n", "r_n", "d_L", "V_x", "V_y", "V_z",
+               "d_c", "m_a_kg", "mean_T_s", "p_success_opt", "successes_opt", "samples_opt",
+               "opt_wilson_low", "opt_wilson_high", "p_success_validated", "successes_validated",
+               "samples_validated", "validated_wilson_low", "validated_wilson_high",
+               "validated_cp_low", "validated_cp_high", "validated_mean_T_s", "selection_rule"]
+
+
+def _f(v, digits=3):
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "n/a"
+    return f"{v:.{digits}f}"
+
+
+def _num(v):
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return ""
+    return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def write_results(csv_path: str | Path, md_path: str | Path, summary: dict) -> None:
+    """``results.csv`` (one row per table row, every number) and ``results.md`` (the
+    SPEC section 9 table: m_a, mean T, P*_s during optimisation, validated P*_s with its
+    Wilson and Clopper-Pearson 95 % intervals)."""
+    rows = summary["table"]
+    with open(csv_path, "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow(_CSV_FIELDS)
+        for r in rows:
+            x, v = r["x"], r["validation"] or {}
+            w.writerow([summary["case"], r["design"], _num(r["evaluation"]), _num(x["m_c"]),
+                        _num(x["L_n"]), _num(x["r_n"]), _num(x["d_L"]), *map(_num, x["V_e"]),
+                        _num(x["d_c"]), _num(r["mass"]), _num(r["mean_completion_time"]),
+                        _num(r["p_success"]), _num(r["successes"]), _num(r["samples"]),
+                        _num(r["ci"][0]), _num(r["ci"][1]), _num(v.get("p_success")),
+                        _num(v.get("successes")), _num(v.get("samples")),
+                        _num((v.get("wilson") or [None])[0]),
+                        _num((v.get("wilson") or [None, None])[1]),
+                        _num((v.get("clopper_pearson") or [None])[0]),
+                        _num((v.get("clopper_pearson") or [None, None])[1]),
+                        _num(v.get("mean_completion_time")),
+                        summary["selection_rule"] if r["evaluation"] else ""])
+    Path(md_path).write_text(results_markdown(summary), encoding="utf-8")
+
+
+def results_markdown(summary: dict) -> str:
+    rows = summary["table"]
+    n_opt = summary["samples"]
+    n_val = next((r["validation"]["samples"] for r in rows if r["validation"]), None)
+    out = [f"# Case {summary['case_number']} results", "",
+           f"{summary['problem']}.", "",
+           f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
+           f"{summary['evaluations'] - summary['seed_points'] if summary['evaluations'] > summary['seed_points'] else 0} "
+           f"iterations), {n_opt} samples each (base seed {summary['sample_seed']}), "
+           f"{summary['feasible_evaluations']} observed feasible. Status: {summary['status']}.", ""]
+    if not rows:
+        out += ["No evaluated design met the constraints; nothing to validate.", ""]
+        return "\n".join(out)
+    val_head = f"validated P*_s (N={n_val}) [Wilson 95%]" if n_val else "validated P*_s"
+    head = ["design", "m_a (kg)", "mean T (s)", f"P*_s (N={n_opt}) [Wilson 95%]", val_head,
+            "Clopper-Pearson 95%", "validated mean T (s)"]
+    out += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        v = r["validation"]
+        opt = f"{_f(r['p_success'], 2)} [{_f(r['ci'][0])}, {_f(r['ci'][1])}]"
+        if v:
+            val = f"{_f(v['p_success'])} [{_f(v['wilson'][0])}, {_f(v['wilson'][1])}]"
+            cp = f"[{_f(v['clopper_pearson'][0])}, {_f(v['clopper_pearson'][1])}]"
+            vt = _f(v["mean_completion_time"], 2)
+        else:
+            val, cp, vt = "not validated", "", ""
+        out.append("| " + " | ".join([r["design"], _f(r["mass"], 2),
+                                      _f(r["mean_completion_time"], 2), opt, val, cp, vt]) + " |")
+    out += ["", "Design variables:", "",
+            "| design | m_c (kg) | L_n (m) | r_n (m) | d_L (m) | V_e (m/s) | d_c (m) |",
+            "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        x = r["x"]
+        ve = ", ".join(f"{v:.2f}" for v in x["V_e"])
+        out.append(f"| {r['design']} | {x['m_c']:.2f} | {x['L_n']:.2f} | {x['r_n']:.4f} | "
+                   f"{x['d_L']:.2f} | [{ve}] | {x['d_c']:.2f} |")
+    out += ["", f"Chosen by: {summary['selection_rule']}."]
+    if rows[0]["evaluation"]:
+        out.append(f"Best design = evaluation {rows[0]['evaluation']}.")
+    v = rows[0]["validation"]
+    if v and rows[0]["evaluation"]:
+        meets = v["p_success"] >= 0.98
+        out.append(f"Validated with {v['samples']} fresh samples (base seed {v['base_seed']}): "
+                   f"P*_s {'meets' if meets else 'does NOT meet'} the 0.98 requirement.")
+    out.append("mean T is over all samples (closing never triggered: T = horizon).")
+    return "\n".join(out) + "\n"
+
+
+def plot_convergence(path: str | Path, history, case: Case, best=None,
+                     validated_p: float | None = None) -> Path:
+    """Three panels over the evaluation number: the objective of each evaluated design
+    (filled: observed feasible, hollow: infeasible) with the best feasible so far; P*_s
+    with the threshold; m_a (with C_m for Case 2).  The seed phase is shaded and the chosen
+    design starred (with its validated P*_s if given)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    n = len(history)
+    it = np.arange(1, n + 1)
+    obj = np.array([o.objective for o in history]) if n else np.zeros(0)
+    p = np.array([o.constraints[P_SUCCESS] for o in history]) if n else np.zeros(0)
+    mass = np.array([float(o.info.get("mass") or math.nan) for o in history]) if n else np.zeros(0)
+    feas = np.array([o.feasible for o in history], dtype=bool) if n else np.zeros(0, bool)
+    n_seed = sum(1 for o in history if o.acquisition.get("phase", "initial") == "initial")
+    best_so_far = np.full(n, np.nan)
+    cur = math.inf
+    for i, o in enumerate(history):
+        if o.feasible:
+            cur = min(cur, o.objective)
+        best_so_far[i] = cur if math.isfinite(cur) else np.nan
+
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8.5), sharex=True)
+    ax = axes[0]
+    ax.plot(it[~feas], obj[~feas], "o", mfc="none", mec="0.6", ms=4, label="infeasible (observed)")
+    ax.plot(it[feas], obj[feas], "o", color="tab:blue", ms=4, label="feasible (observed)")
+    ax.step(it, best_so_far, where="post", color="k", lw=1.5, label="best feasible so far")
+    ax.set_ylabel(f"{case.objective_label} ({case.objective_unit})")
+    ax = axes[1]
+    ax.plot(it, p, ".", color="tab:green", ms=5)
+    ax.axhline(case.p_threshold, color="r", ls=":", lw=1, label=f"C_P = {case.p_threshold:g}")
+    ax.set_ylabel("P*_s (optimisation samples)")
+    ax.set_ylim(-0.03, 1.03)
+    ax = axes[2]
+    ax.plot(it, mass, ".", color="tab:purple", ms=5)
+    if case.mass_limit is not None:
+        ax.axhline(case.mass_limit, color="r", ls=":", lw=1, label=f"C_m = {case.mass_limit:g} kg")
+    ax.set_ylabel("m_a (kg)")
+    ax.set_xlabel("evaluation")
+    if best is not None and n:
+        i = next(k for k, o in enumerate(history) if o is best) + 1
+        axes[0].plot([i], [best.objective], "*", color="tab:red", ms=13, label="chosen design")
+        axes[1].plot([i], [best.constraints[P_SUCCESS]], "*", color="tab:red", ms=13)
+        if validated_p is not None and math.isfinite(validated_p):
+            axes[1].plot([i], [validated_p], "D", mfc="none", mec="tab:red", ms=8,
+                         label="validated P*_s")
+        axes[2].plot([i], [mass[i - 1]], "*", color="tab:red", ms=13)
+    for ax in axes:
+        if n_seed:
+            ax.axvspan(0.5, min(n_seed, max(n, 1)) + 0.5, color="0.92", zorder=0)
+        ax.grid(alpha=0.3)
+        handles, labels = ax.get_legend_handles_labels()
+        if handles:
+            ax.legend(fontsize=8, loc="best")
+    axes[0].set_title(f"{case.describe()}  (shaded: {n_seed} seed points)", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

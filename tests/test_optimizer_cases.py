@@ -1,0 +1,271 @@
+"""Case 1 / Case 2 on the Monte Carlo evaluator (optimizer.cases, optimizer.run) and
+`tethernet optimize`.
+
+Fast checks run on a synthetic episode backend (tests/optimizer_fakes.py: the
+EpisodeBackend interface with a smooth success probability, no physics).  The end-to-end
+checks simulate for real, in-process, on a short scenario (settle time 2 s, horizon 15 s)
+whose success rule is relaxed (any settled CQI, any n_L) so that a 5-design run finds a
+feasible design: 3 seed points + 2 iterations x 3 samples, 3 validation samples.  The
+module takes about a minute here (2 cores).
+"""
+import json
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optimizer import binomial_observation
+from optimizer.cases import CASE_MASS, CASE_TIME, DesignEvaluator, get_case, select_best
+from optimizer.run import RunError, run_optimization
+from optimizer.bayesopt import ConstrainedBayesOpt
+from optimizer_fakes import SyntheticBackend
+from tethernet_ros import cli
+from tethernet_ros.core.config import SimConfig
+from tethernet_ros.core.design import (DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
+                                       system_mass)
+from tethernet_ros.montecarlo import EpisodeBackend, InProcessBackend, sample_seed
+
+ROOT = Path(__file__).resolve().parent.parent
+FAST = {"n_restarts_gp": 0, "n_candidates": 2000}
+SHORT = {"settle_time": 2.0, "horizon": 15.0, "success_cqi": 1.0e6, "success_locked_pairs": 0}
+TINY = dict(seed_points=3, iterations=2, samples=3, validation_samples=3)
+
+
+# ----------------------------------------------------------------- case definitions
+def test_case_definitions():
+    assert get_case("mass") is CASE_MASS and get_case("1") is CASE_MASS
+    assert get_case("time") is CASE_TIME and get_case("2") is CASE_TIME
+    with pytest.raises(ValueError, match="allowed cases"):
+        get_case("speed")
+    for case in (CASE_MASS, CASE_TIME):
+        assert case.bounds == [DESIGN_BOUNDS[n] for n in VARIABLE_NAMES]
+        assert len(case.bounds) == 8
+        assert case.constraints == {"p_success": 0.98}
+    assert CASE_MASS.cheap_constraint(1390.0) is None
+    ok = CASE_TIME.cheap_constraint(1390.0)
+    tm = REFERENCE_DESIGNS["time-min"]
+    assert tm.mass() < 15.0 and ok(tm.to_vector())
+    heavy = Design(m_c=3.9, L_n=20.0, r_n=0.002, d_L=20.0, V_e=(2, 2, 5), d_c=0.0)
+    assert heavy.mass() > 15.0 and not ok(heavy.to_vector())
+    # the limit is exactly m_a <= 15 kg with the configured density
+    x = np.array([3.0, 20.0, 0.001, 20, 2, 2, 5, 0])
+    rho = (15.0 - 12.0) / (38 * 20.0 * math.pi * 0.001**2)
+    assert CASE_TIME.cheap_constraint(rho)(x)
+    assert not CASE_TIME.cheap_constraint(rho * 1.001)(x)
+
+
+def test_evaluator_observation_common_random_numbers():
+    be = SyntheticBackend()
+    cfg = SimConfig(**SHORT)
+    ev = DesignEvaluator(CASE_MASS, be, samples=20, base_seed=4, config=cfg)
+    x1 = REFERENCE_DESIGNS["mass-min"].to_vector()
+    x2 = REFERENCE_DESIGNS["suboptimal"].to_vector()
+    obj, cons, var, info = ev(x1)
+    assert obj == system_mass(*x1[:3], cfg.density)              # exact objective
+    k = info["successes"]
+    assert cons == {"p_success": k / 20}
+    assert var == {"p_success": binomial_observation(k, 20)[1]}
+    ev(x2)
+    seeds = [t.seed for t in be.tasks]
+    assert seeds[:20] == seeds[20:] == [sample_seed(4, i) for i in range(20)]  # CRN
+    assert ev.calls == 2 and len(be.tasks) == 40
+    # Case 2: objective is the mean completion time over the samples
+    ev2 = DesignEvaluator(CASE_TIME, SyntheticBackend(), samples=5, base_seed=0, config=cfg)
+    obj2, _, _, info2 = ev2(REFERENCE_DESIGNS["time-min"].to_vector())
+    assert obj2 == pytest.approx(info2["mean_completion_time"])
+
+
+def test_mass_constraint_is_never_simulated(tmp_path):
+    be = SyntheticBackend()
+    ev = DesignEvaluator(CASE_TIME, be, samples=4, base_seed=0)
+    heavy = np.array([4.0, 22.0, 0.01, 20, 2, 2, 5, 0])
+    with pytest.raises(ValueError, match="must not be simulated"):
+        ev(heavy)
+    assert be.tasks == []
+    s = run_optimization("time", iterations=6, seed_points=10, samples=4, backend=be,
+                         run_dir=tmp_path / "run", validation_samples=0,
+                         optimizer_options=FAST)
+    assert s["evaluations"] == 16
+    assert len(be.tasks) == 16 * 4                    # one simulation per sample, nothing else
+    masses = {t.key: t.design.mass(t.config.density) for t in be.tasks}
+    assert len(masses) == 16 and max(masses.values()) <= 15.0
+
+
+def test_select_best_needs_pooled_evidence():
+    """A lucky 'feasible' observation among infeasible neighbours loses to a consistently
+    feasible design with a worse objective; with no filter it would win."""
+    opt = ConstrainedBayesOpt([(0.0, 1.0)], {"p_success": 0.98}, n_initial=1, seed=0,
+                              n_restarts_gp=0)
+    for x in np.linspace(0.0, 0.5, 11):               # infeasible region, one lucky point
+        p = 1.0 if x == 0.25 else 0.9
+        opt.tell([x], 1.0 + x, {"p_success": p}, {"p_success": binomial_observation(round(p * 100), 100)[1]})
+    for x in np.linspace(0.7, 1.0, 7):                 # feasible region
+        opt.tell([x], 2.0 + x, {"p_success": 1.0}, {"p_success": binomial_observation(100, 100)[1]})
+    best, rule = select_best(opt, min_probability=None)
+    assert best.x[0] == 0.25
+    best, rule = select_best(opt, 0.5)
+    assert best.x[0] == pytest.approx(0.7) and "posterior" in rule
+    empty = ConstrainedBayesOpt([(0.0, 1.0)], {"p_success": 0.98}, n_initial=1)
+    empty.tell([0.5], 1.0, {"p_success": 0.5})
+    assert select_best(empty) == (None, "no evaluated design met the constraints")
+
+
+# ----------------------------------------------------------------- runs, resume
+def _history(run_dir):
+    return (Path(run_dir) / "history.csv").read_text().splitlines()
+
+
+def _strip_wall(lines):
+    return [",".join(line.split(",")[:-1]) for line in lines]  # last column: wall time
+
+
+def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path):
+    kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
+              optimizer_options=FAST)
+    full_be = SyntheticBackend()
+    full = run_optimization("mass", backend=full_be, run_dir=tmp_path / "full", **kw)
+    assert full["best_design"] is not None and full["validation"]["samples"] == 20
+    for kill_after in (25, 95):                  # mid seed phase, mid model-based phase
+        d = tmp_path / f"killed{kill_after}"
+        with pytest.raises(KeyboardInterrupt):
+            run_optimization("mass", backend=SyntheticBackend(fail_after=kill_after), run_dir=d, **kw)
+        with pytest.raises(RunError, match="already holds a run"):
+            run_optimization("mass", backend=SyntheticBackend(), run_dir=d, **kw)
+        with pytest.raises(RunError, match="'samples'"):
+            run_optimization("mass", backend=SyntheticBackend(), run_dir=d, resume=True,
+                             **{**kw, "samples": 11})
+        be = SyntheticBackend()
+        resumed = run_optimization("mass", backend=be, run_dir=d, resume=True, **kw)
+        # nothing simulated twice: the in-flight design's finished samples were reused
+        assert kill_after + len(be.tasks) == len(full_be.tasks)
+        assert _strip_wall(_history(d)) == _strip_wall(_history(tmp_path / "full"))
+        for key in ("best_design", "best_objective", "p_success", "evaluations", "validation",
+                    "selection_rule"):
+            assert resumed[key] == full[key], key
+    # resuming a finished run re-does nothing (and may extend the budget)
+    be = SyntheticBackend()
+    again = run_optimization("mass", backend=be, run_dir=tmp_path / "full", resume=True, **kw)
+    assert be.tasks == [] and again["best_design"] == full["best_design"]
+    more = run_optimization("mass", backend=be, run_dir=tmp_path / "full", resume=True,
+                            **{**kw, "iterations": 8})
+    assert more["evaluations"] == 14 and 0 < len(be.tasks) <= 40  # (+ validation if the best moved)
+
+
+class KillAfter(EpisodeBackend):
+    """Wraps a backend; raises KeyboardInterrupt (a kill) once ``n`` tasks have run."""
+
+    def __init__(self, inner, n):
+        self.inner, self.n, self.count = inner, n, 0
+
+    def map(self, tasks, max_in_flight=None):
+        for out in self.inner.map(tasks, max_in_flight):
+            if self.count >= self.n:
+                raise KeyboardInterrupt("simulated kill")
+            self.count += 1
+            yield out
+
+
+@pytest.fixture(scope="module")
+def short_yaml(tmp_path_factory):
+    p = tmp_path_factory.mktemp("cfg") / "short.yaml"
+    p.write_text("".join(f"{k}: {v}\n" for k, v in SHORT.items()))
+    return p
+
+
+@pytest.fixture(scope="module")
+def cli_run(tmp_path_factory, short_yaml):
+    """`tethernet optimize --json` on a tiny real run (in-process simulation)."""
+    run_dir = tmp_path_factory.mktemp("opt") / "cli"
+    out = subprocess.run(
+        [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "mass",
+         "--seed-points", "3", "--iterations", "2", "--samples", "3", "--validation-samples", "3",
+         "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
+         "--gp-restarts", "0", "--candidates", "2000", "--json"],
+        capture_output=True, text=True, cwd=ROOT, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return run_dir, json.loads(out.stdout), out.stderr
+
+
+def test_cli_optimize_json_tiny_real_run(cli_run):
+    run_dir, d, stderr = cli_run
+    for key in ("best_design", "best_objective", "p_success", "mass", "mean_completion_time",
+                "evaluations"):
+        assert key in d, key
+    assert d["evaluations"] == 5 and d["case"] == "mass" and d["status"] == "complete"
+    assert d["best_design"] is not None, "relaxed success rule: some design must be feasible"
+    best = Design.from_dict(d["best_design"])
+    assert best.within_bounds()
+    assert d["best_objective"] == d["mass"] == best.mass()
+    assert d["p_success"] >= 0.98
+    v = d["validation"]
+    assert v["samples"] == 3 and v["base_seed"] == 0
+    assert v["wilson"][0] <= v["p_success"] <= v["wilson"][1]
+    assert "designs" in stderr and "ETA" in stderr            # tqdm progress on stderr
+    for name in ("results.csv", "results.md", "convergence.png", "checkpoint.json",
+                 "samples.jsonl", "validation.jsonl", "history.csv", "run.json", "summary.json"):
+        assert (run_dir / name).is_file(), name
+    assert (run_dir / "convergence.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    md = (run_dir / "results.md").read_text()
+    assert "validated P*_s (N=3)" in md and "best (Case 1)" in md and "m_a (kg)" in md
+    rows = (run_dir / "results.csv").read_text().splitlines()
+    assert rows[0].startswith("case,design,evaluation,m_c") and len(rows) == 2
+    assert len((run_dir / "samples.jsonl").read_text().splitlines()) == 15
+
+
+def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path):
+    cli_dir, d, _ = cli_run
+    cfg = SimConfig.from_dict(SHORT)
+    kw = dict(TINY, config=cfg, optimizer_options=FAST)
+    run_dir = tmp_path / "killed"
+    with pytest.raises(KeyboardInterrupt):           # killed in evaluation 4 (2nd sample)
+        run_optimization("mass", backend=KillAfter(InProcessBackend(), 10), run_dir=run_dir, **kw)
+    assert len(_history(run_dir)) == 1 + 3
+    be = KillAfter(InProcessBackend(), 10**9)
+    s = run_optimization("mass", backend=be, run_dir=run_dir, resume=True, **kw)
+    assert be.count == 15 - 10 + 3                   # rest of the run + validation only
+    assert _strip_wall(_history(run_dir)) == _strip_wall(_history(cli_dir))
+    for key in ("best_design", "best_objective", "p_success", "mass", "validation"):
+        assert s[key] == d[key], key
+
+
+# ----------------------------------------------------------------- CLI errors
+@pytest.mark.parametrize("argv, message", [
+    (["--samples", "0"], "--samples 0: must be an integer >= 1"),
+    (["--seed-points", "0"], "--seed-points 0: must be an integer >= 1"),
+    (["--iterations", "-1"], "--iterations -1: must be an integer >= 0"),
+    (["--via", "ros", "--workers", "2"], "cannot be combined with --workers"),
+    (["--workers", "-3"], "--workers -3"),
+    (["--validation-seed", "1"], "must differ from --sample-seed"),
+    (["--keep-bags"], "--keep-bags only applies with --via ros"),
+    (["--config", "/nonexistent/x.yaml"], "does not exist"),
+    (["--noise-scale", "speed"], "expected SOURCE=FACTOR"),
+])
+def test_cli_bad_arguments_one_line(argv, message, capsys, tmp_path):
+    code = cli.main(["optimize", "--case", "time", "--run-dir", str(tmp_path / "r"), *argv])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not (tmp_path / "r").exists()
+
+
+def test_cli_existing_run_and_changed_settings(cli_run, capsys, tmp_path, short_yaml):
+    cli_dir, _, _ = cli_run
+    run_dir = tmp_path / "copy"
+    shutil.copytree(cli_dir, run_dir)
+    base = ["optimize", "--case", "mass", "--run-dir", str(run_dir), "--workers", "0",
+            "--config", str(short_yaml), "--seed-points", "3", "--iterations", "2",
+            "--gp-restarts", "0", "--candidates", "2000", "--no-progress"]
+    assert cli.main(base + ["--samples", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "already holds a run" in err
+    assert cli.main(base + ["--samples", "4", "--resume"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "setting 'samples'" in err
+    # the finished run resumes without simulating and prints the table
+    assert cli.main(base + ["--samples", "3", "--validation-samples", "3", "--resume"]) == 0
+    out = capsys.readouterr().out
+    assert "best (Case 1)" in out and "validated P*_s" in out

@@ -1,0 +1,239 @@
+"""`tethernet optimize`: reliability-constrained Bayesian optimisation (SPEC section 7).
+
+Case 1 (``--case mass``): minimise m_a s.t. P*_s >= 0.98.  Case 2 (``--case time``):
+minimise mean T s.t. P*_s >= 0.98 and m_a <= 15 kg.  Every evaluation is checkpointed in
+the run directory (``--resume`` continues a killed run); the best feasible design is then
+validated with fresh samples and the results table (results.md / results.csv) and the
+convergence history (convergence.png) are written next to the checkpoint.  See
+:mod:`optimizer.run` for the files and the seeds.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+from .common import (add_config_argument, add_noise_arguments, config_from_args,
+                     noise_model_from_args, print_json)
+
+NAME = "optimize"
+HELP = ("Bayesian optimisation of the net design and actions: Case 1 (--case mass) or "
+        "Case 2 (--case time), with checkpoints, validation and a results table")
+
+
+def add_arguments(p):
+    p.add_argument("--case", required=True, choices=("mass", "time"),
+                   help="mass: minimise m_a s.t. P*_s >= 0.98 (Case 1); time: minimise mean T "
+                        "s.t. P*_s >= 0.98 and m_a <= 15 kg (Case 2)")
+    p.add_argument("--iterations", type=int, default=200, metavar="N",
+                   help="model-based iterations after the seed points (default 200)")
+    p.add_argument("--seed-points", type=int, default=50, metavar="K",
+                   help="space-filling seed designs (default 50)")
+    p.add_argument("--samples", type=int, default=100, metavar="M",
+                   help="Monte Carlo samples per design during optimisation (default 100)")
+    p.add_argument("--validation-samples", type=int, default=1000, metavar="V",
+                   help="fresh samples to validate the best design with (default 1000; 0: none)")
+    p.add_argument("--workers", type=int, default=None, metavar="W",
+                   help="local worker processes (default: all cores; 0: in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR|local",
+                   help="run the episodes on a Dask cluster at ADDR (tcp://host:8786), or "
+                        "'local' for a local Dask cluster of --workers processes")
+    p.add_argument("--via", choices=("library", "ros"), default="library",
+                   help="ros: run every episode through the ROS 2 suite's RunCapture service "
+                        "and read its result back from the recorded MCAP bag (one at a time)")
+    p.add_argument("--keep-bags", action="store_true",
+                   help="with --via ros: keep every episode's bag (in RUN_DIR/bags)")
+    p.add_argument("--run-dir", default=None, metavar="DIR",
+                   help="run directory: checkpoint, samples, results (default "
+                        "out/optimize/case1-mass or out/optimize/case2-time)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --run-dir (same settings; --iterations and "
+                        "--validation-samples may change)")
+    p.add_argument("--seed", type=int, default=0, metavar="S",
+                   help="optimiser seed: seed design, acquisition candidates (default 0)")
+    p.add_argument("--sample-seed", type=int, default=1, metavar="B",
+                   help="Monte Carlo base seed of the optimisation samples, the same for every "
+                        "design (default 1)")
+    p.add_argument("--validation-seed", type=int, default=0, metavar="B",
+                   help="base seed of the validation samples (default 0, as tethernet validate)")
+    p.add_argument("--compare-reference", action="store_true",
+                   help="also evaluate and validate the case's SPEC reference design "
+                        "(mass-min / time-min) for the results table")
+    add_noise_arguments(p)
+    add_config_argument(p)
+    p.add_argument("--json", action="store_true", help="print the run summary as JSON")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    # advanced / test settings (not in --help)
+    p.add_argument("--settle-time", type=float, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--horizon", type=float, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--gp-restarts", type=int, default=None, help=argparse.SUPPRESS)
+    p.add_argument("--candidates", type=int, default=None, help=argparse.SUPPRESS)
+
+
+def check_arguments(args) -> None:
+    from ..errors import UserError
+
+    for flag, value, low in (("--iterations", args.iterations, 0),
+                             ("--seed-points", args.seed_points, 1),
+                             ("--samples", args.samples, 1),
+                             ("--validation-samples", args.validation_samples, 0),
+                             ("--seed", args.seed, 0), ("--sample-seed", args.sample_seed, 0),
+                             ("--validation-seed", args.validation_seed, 0)):
+        if value < low:
+            raise UserError(f"{flag} {value}: must be an integer >= {low}")
+    if args.workers is not None and args.workers < 0:
+        raise UserError(f"--workers {args.workers}: must be an integer >= 0 (0: in-process)")
+    if args.scheduler is not None and args.workers == 0:
+        raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
+    if args.via == "ros" and (args.workers is not None or args.scheduler is not None):
+        raise UserError("--via ros runs the episodes through the ROS suite; it cannot be "
+                        "combined with --workers or --scheduler")
+    if args.keep_bags and args.via != "ros":
+        raise UserError("--keep-bags only applies with --via ros")
+    if args.validation_samples and args.validation_seed == args.sample_seed:
+        raise UserError(f"--validation-seed {args.validation_seed}: must differ from "
+                        "--sample-seed (validation samples must be fresh)")
+    if args.gp_restarts is not None and args.gp_restarts < 0:
+        raise UserError(f"--gp-restarts {args.gp_restarts}: must be an integer >= 0")
+    if args.candidates is not None and args.candidates < 1:
+        raise UserError(f"--candidates {args.candidates}: must be an integer >= 1")
+
+
+class OptimizeProgress:
+    """tqdm bars on stderr: designs (advancing per sample, with the best feasible design
+    and the estimated time left) and then each validation."""
+
+    def __init__(self, case, disable: bool):
+        self.case = case
+        self.disable = disable
+        self.bar = None
+        self.vbar = None
+        self.vlabel = None
+        self.done = 0
+        self.postfix = ""
+
+    def _tqdm(self, **kw):
+        from tqdm import tqdm
+
+        return tqdm(file=sys.stderr, dynamic_ncols=True, smoothing=0.05, **kw)
+
+    def __call__(self, ev: dict) -> None:
+        if self.disable:
+            return
+        stage = ev["stage"]
+        if stage == "start":
+            self.done = ev["done"]
+            self.bar = self._tqdm(total=ev["total"], initial=ev["done"],
+                                  desc=f"Case {self.case.number} ({self.case.name})",
+                                  bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total} "
+                                             "designs [{elapsed}<{remaining}{postfix}]")
+        elif stage == "sample" and self.bar is not None:
+            self.bar.n = self.done + (ev["done"] / ev["samples"] if ev["samples"] else 0)
+            self.bar.refresh()
+        elif stage == "evaluation" and self.bar is not None:
+            self.done = ev["evaluation"]
+            self.bar.n = self.done
+            unit = self.case.objective_unit
+            best = ev.get("best_objective")
+            text = (f"iter {ev['evaluation']}/{ev['total']}, best feasible "
+                    + (f"{best:.3g} {unit} (P {ev['best_p_success']:.2f})" if best is not None
+                       else "none yet")
+                    + f", last P {ev['p_success']:.2f}")
+            eta = ev.get("eta_s")
+            if eta is not None and math.isfinite(eta):
+                text += f", ETA incl. validation {_duration(eta)}"
+            self.bar.set_postfix_str(text, refresh=True)
+        elif stage == "validation":
+            if self.bar is not None:
+                self.bar.close()
+                self.bar = None
+            if self.vbar is None or self.vlabel != ev["label"]:
+                if self.vbar is not None:
+                    self.vbar.close()
+                self.vlabel = ev["label"]
+                self.vbar = self._tqdm(total=ev["total"], initial=ev["done"],
+                                       desc=f"validating {ev['label']}", unit="ep")
+            else:
+                self.vbar.update(ev["done"] - self.vbar.n)
+        elif stage == "done":
+            self.close()
+
+    def close(self):
+        for b in (self.bar, self.vbar):
+            if b is not None:
+                b.close()
+        self.bar = self.vbar = None
+
+
+def _duration(s: float) -> str:
+    s = int(round(s))
+    return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
+
+
+def run(args) -> int:
+    from optimizer.cases import get_case
+    from optimizer.checkpoint import CheckpointError
+    from optimizer.run import RunError, default_run_dir, run_optimization
+
+    from ..errors import UserError
+
+    check_arguments(args)
+    case = get_case(args.case)
+    model = noise_model_from_args(args)
+    over = {k: v for k, v in (("settle_time", args.settle_time), ("horizon", args.horizon))
+            if v is not None}
+    config = config_from_args(args, **over)
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(case)
+    if args.resume and not (run_dir / "checkpoint.json").exists():
+        print(f"tethernet optimize: no checkpoint in {run_dir}; starting a new run",
+              file=sys.stderr)
+    options = {}
+    if args.gp_restarts is not None:
+        options["n_restarts_gp"] = args.gp_restarts
+    if args.candidates is not None:
+        options["n_candidates"] = args.candidates
+
+    if args.via == "ros":
+        from ..ros_backend import RosBackend
+
+        backend = RosBackend(bag_dir=run_dir / "bags" if args.keep_bags else None,
+                             keep_bags=args.keep_bags)
+    else:
+        from ..montecarlo import make_backend
+
+        backend = make_backend(workers=args.workers, scheduler=args.scheduler)
+    bar = OptimizeProgress(case, args.no_progress)
+    t0 = time.perf_counter()
+    try:
+        summary = run_optimization(
+            case, iterations=args.iterations, seed_points=args.seed_points,
+            samples=args.samples, backend=backend, run_dir=run_dir, resume=args.resume,
+            validation_samples=args.validation_samples, config=config, noise_model=model,
+            seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
+            compare_reference=args.compare_reference, progress=bar, optimizer_options=options)
+    except (RunError, CheckpointError) as exc:
+        raise UserError(str(exc)) from None
+    finally:
+        bar.close()
+        backend.close()
+    wall = time.perf_counter() - t0
+
+    if args.json:
+        print_json(summary)
+        return 0
+    md = Path(summary["files"]["results_md"]).read_text(encoding="utf-8")
+    print(md.rstrip())
+    print(f"\n{summary['evaluations']} designs x {summary['samples']} samples on "
+          f"{summary['backend']}, {wall:.1f} s wall"
+          + (f" ({summary['seconds_per_evaluation']:.1f} s per simulated design)"
+             if summary.get("seconds_per_evaluation") else ""))
+    files = summary["files"]
+    print(f"run directory {summary['run_dir']}: results {Path(files['results_md']).name}, "
+          f"{Path(files['results_csv']).name}, convergence {Path(files['convergence']).name}, "
+          f"history {Path(files['history']).name}")
+    if summary["best_design"] is None:
+        print("no evaluated design met the constraints; run more iterations (--resume "
+              "--iterations N) or relax the problem", file=sys.stderr)
+    return 0
