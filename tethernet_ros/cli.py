@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
                 continue  # command not built yet
             raise
         text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
-        p = sub.add_parser(mod.NAME, help=text, description=text)
+        p = sub.add_parser(mod.NAME, help=text, description=mod.HELP)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
