@@ -35,6 +35,7 @@ setup(
             "sim_node = tethernet_ros.nodes.sim_node:main",
             "monitor_node = tethernet_ros.nodes.monitor_node:main",
             "actuator_node = tethernet_ros.nodes.actuator_node:main",
+            "capture_node = tethernet_ros.nodes.capture_node:main",
         ],
     },
 )

@@ -359,6 +359,18 @@ def expected_improvement_plus(maximise: Callable, model, n_evaluations: int,
 
 
 # --------------------------------------------------------------------------- optimiser
+#: two designs closer than this in every normalised coordinate count as the same design
+DUPLICATE_TOL = 1e-3
+
+
+def _near_any(points: np.ndarray, others: np.ndarray, tol: float) -> np.ndarray:
+    """For each row of ``points`` (unit cube), whether some row of ``others`` lies within
+    ``tol`` of it in every coordinate."""
+    if len(others) == 0:
+        return np.zeros(len(points), dtype=bool)
+    return (np.abs(points[:, None, :] - others[None, :, :]).max(axis=2) < tol).any(axis=1)
+
+
 class ConstrainedBayesOpt:
     """Ask/tell constrained Bayesian optimiser over a box.
 
@@ -606,8 +618,23 @@ class ConstrainedBayesOpt:
             else:
                 u = maximise(obj)
             la = float(self._log_acq(obj, cons, incumbent, u[None, :])[0])
+        # Never ask for a design already evaluated: with common random numbers a repeat
+        # returns the same observation, so it teaches the models nothing (a flat
+        # feasibility model, e.g. every P*_s observed 0, otherwise sends the polish to
+        # the same corner again and again).  Take the best candidate away from them.
+        deduplicated = False
+        U_all = self.to_unit(np.array([o.x for o in self.history]))
+        if _near_any(u[None, :], U_all, DUPLICATE_TOL)[0]:
+            fresh = cand[~_near_any(cand, U_all, DUPLICATE_TOL)]
+            if len(fresh):
+                score = (self._log_pf(cons, fresh) if incumbent is None
+                         else self._log_acq(obj, cons, incumbent, fresh))
+                u = fresh[int(np.argmax(score))]
+                la = float(score.max())
+                deduplicated = True
         mu, sd = obj.predict(u[None, :])
         self.last_ask_info = {
+            "deduplicated": deduplicated,
             "phase": phase,
             "log_acquisition": float(la),
             "probability_feasible": float(np.exp(self._log_pf(cons, u[None, :])[0])),

@@ -334,3 +334,19 @@ def test_checkpoint_errors(tmp_path):
                  **{**opts, "n_initial": 3})
     # no temporary files left behind
     assert sorted(p.name for p in tmp_path.iterdir()) == ["opt.json"]
+
+
+def test_never_asks_for_an_evaluated_design_again():
+    """With every constraint observation infeasible (a flat feasibility model) the
+    optimiser must still explore: no design is asked twice (with common random numbers a
+    repeat would return the same observation)."""
+    from optimizer.bayesopt import ConstrainedBayesOpt
+
+    opt = ConstrainedBayesOpt([(0.0, 1.0)] * 3, constraints={"p": 0.98}, n_initial=4,
+                              n_iterations=8, seed=3, n_restarts_gp=0)
+    seen = []
+    for _ in range(12):
+        x = opt.ask()
+        assert all(np.abs(x - y).max() > 1e-4 for y in seen)
+        seen.append(x)
+        opt.tell(x, float(x.sum()), {"p": 0.0}, {"p": 0.01})

@@ -149,7 +149,7 @@ class BagWriter:
     """
 
     def __init__(self, path: str | os.PathLike, compression: str = "zstd",
-                 custom_data: dict | None = None, chunk_size: int = 1 << 20):
+                 custom_data: dict | None = None, chunk_size: int = 256 * 1024):
         from mcap.writer import CompressionType, Writer
 
         self.final = Path(path)
@@ -373,10 +373,10 @@ def _locate(path: Path) -> tuple[Path | None, dict | None, str | None, list[str]
 
 
 def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
-             decode: bool = True) -> BagContents:
+             decode: bool = True, types: set[str] | None = None) -> BagContents:
     """Read a bag (folder or .mcap file) record by record.
 
-    Returns every message (of ``topics``, if given) that can be read before the first
+    Returns every message (of ``topics`` and ``types``, if given) that can be read before the first
     damage, decoded with mcap-ros2-support if ``decode``; a truncated or corrupted file
     ends the reading at the damage, which ``problems`` describes.  Raises BagError only if
     there is no bag at ``path``.
@@ -413,6 +413,8 @@ def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
                     if topics is not None and ch.topic not in topics:
                         continue
                     sch = schemas.get(ch.schema_id)
+                    if types is not None and (sch is None or sch.name not in types):
+                        continue
                     bm = BagMessage(ch.topic, sch.name if sch else "", rec.log_time,
                                     rec.publish_time, bytes(rec.data))
                     if decode and ch.topic not in undecodable:
@@ -431,16 +433,18 @@ def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
         except Exception as exc:  # noqa: BLE001 - damage: keep what was read
             what = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             at = out.bytes_read
-            if at >= out.file_size or "EndOfFile" in type(exc).__name__ or "end of file" in what.lower():
-                problems.append(f"{mcap_path.name}: file ends after {out.file_size} bytes before the "
-                                f"MCAP footer (truncated); read {len(out.messages)} messages")
+            kind = type(exc).__name__
+            if kind in ("EndOfFile", "RecordLengthLimitExceeded") or "end of file" in what.lower():
+                problems.append(f"{mcap_path.name}: truncated: the file ends ({out.file_size} bytes) "
+                                f"inside the record that starts after byte {at}; read "
+                                f"{len(out.messages)} messages before it")
             else:
                 problems.append(f"{mcap_path.name}: damaged after byte {at} of {out.file_size} "
-                                f"({type(exc).__name__}: {what}); read {len(out.messages)} "
-                                "messages before the damage")
+                                f"({kind}: {what}); read {len(out.messages)} messages before "
+                                "the damage")
     if out.reached_end and metadata is not None:
         expected = metadata.get("message_count")
-        if topics is None and expected is not None and expected != len(out.messages):
+        if topics is None and types is None and expected is not None and expected != len(out.messages):
             problems.append(f"metadata.yaml lists {expected} messages, the file holds "
                             f"{len(out.messages)}")
     return out

@@ -77,7 +77,11 @@ DEFAULTS: dict[str, dict] = {
         "stall_timeout": 15.0,       # s (wall) without a new state -> the episode is aborted
         "episode_timeout": 3600.0,   # s (wall) for a whole episode
         "ready_timeout": 30.0,       # s (wall) to wait for the other nodes before an episode
-        "drain_time": 0.2,           # s (wall) to collect late messages after the verdict
+        "drain_time": 0.1,           # s (wall) to collect late messages after the verdict
+        # topics recorded in bags (keys of TOPICS; ALWAYS_RECORDED are added); /clock and
+        # the target pose are left out by default: the states carry both
+        "record_topics": ["setup", "launch_command", "closing_command", "net_state", "markers",
+                          "metrics", "result", "verdict"],
     },
 }
 for _node in DEFAULTS.values():
@@ -87,6 +91,9 @@ DEFAULTS["capture_node"]["service"] = SERVICE
 #: subscribers of each topic the capture node requires before it starts an episode
 #: (its own recorder included)
 REQUIRED_SUBSCRIBERS = {"setup": 4, "launch_command": 3, "closing_command": 3, "net_state": 2}
+#: topics every bag holds, whatever ``record_topics`` says (replay needs them)
+ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",
+                   "result", "verdict")
 #: publishers it requires
 REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metrics", "result",
                        "verdict")
@@ -161,7 +168,12 @@ def run_node(factory, args=None, threads: int = 1) -> int:
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as exc:  # noqa: BLE001 - one line on stderr, non-zero status
-        print(f"{getattr(node, 'get_name', lambda: 'node')()}: error: {exc}", file=sys.stderr)
+        if os.environ.get("TETHERNET_DEBUG"):
+            import traceback
+
+            traceback.print_exc()
+        name = node.get_name() if node is not None else getattr(factory, "__name__", "node")
+        print(f"{name}: error: {exc}", file=sys.stderr)
         status = 1
     finally:
         if node is not None:

@@ -174,6 +174,25 @@ def setup_from_msg(m) -> Setup:
                  stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)))
 
 
+class CommandBuffer:
+    """The latest launch and closing commands per episode stamp (a few episodes kept):
+    a command may arrive before the EpisodeSetup it answers (different writers)."""
+
+    def __init__(self, keep: int = 8):
+        self.keep = keep
+        self._by_stamp: dict[tuple[int, int], dict] = {}
+
+    def put(self, header, kind: str, msg) -> None:
+        key = (int(header.stamp.sec), int(header.stamp.nanosec))
+        self._by_stamp.setdefault(key, {})[kind] = msg
+        while len(self._by_stamp) > self.keep:
+            self._by_stamp.pop(next(iter(self._by_stamp)))
+
+    def get(self, key: tuple[int, int]):
+        d = self._by_stamp.get(tuple(key), {})
+        return d.get("launch"), d.get("closing")
+
+
 def same_stamp(header, key: tuple[int, int]) -> bool:
     return (int(header.stamp.sec), int(header.stamp.nanosec)) == tuple(key)
 
@@ -380,17 +399,33 @@ def compare_results(a, b) -> str:
 
 # --- markers ----------------------------------------------------------------------------
 class MarkerBuilder:
-    """visualization_msgs/MarkerArray of a scenario: net threads (LINE_LIST), closing ring
-    pairs (LINE_LIST, green when locked), corner masses (SPHERE_LIST), main tether
-    (LINE_STRIP), target cylinder and chaser cube.  Topology is taken once from the
-    Scenario; positions on every call."""
+    """visualization_msgs/MarkerArray of a scenario, in frame ``frame_id``:
+
+    net_rows, net_columns   LINE_STRIPs snaking through the grid by rows and by columns:
+                            together every grid thread (edge threads twice), 2 x 289 points
+    corner_threads          LINE_LIST, net corner -> corner mass
+    closing_ring            LINE_LIST of the 12 drawstring pairs, green when locked
+    corner_masses           SPHERE_LIST
+    main_tether             LINE_STRIP, net centre -> winch
+    target                  CYLINDER (the stage's long axis is its body x)
+    chaser                  CUBE behind the launch point
+
+    Topology is taken once from the Scenario; positions on every call."""
 
     def __init__(self, scenario, frame_id: str = "chaser"):
         s = scenario
         self.frame_id = frame_id
-        n_first_tether = len(s.net_nodes) + len(s.corner_bodies)
-        links = s.links
-        self.thread_ends = links[(links[:, 0] < n_first_tether) & (links[:, 1] < n_first_tether)]
+        n = s.grid_n
+        grid = np.arange(n * n).reshape(n, n)          # node (i, j) = n i + j
+        rows = [grid[i] if i % 2 == 0 else grid[i, ::-1] for i in range(n)]
+        cols = [grid[:, j] if j % 2 == 0 else grid[::-1, j] for j in range(n)]
+        self.row_snake = np.concatenate(rows)
+        self.col_snake = np.concatenate(cols)
+        net = set(int(i) for i in s.net_nodes)
+        corners = set(int(i) for i in s.corner_bodies)
+        self.corner_threads = np.array([(a, b) for a, b in s.links.tolist()
+                                        if (a in net and b in corners) or (b in net and a in corners)],
+                                       dtype=np.int64).reshape(-1, 2)
         self.tether_chain = np.array([s.centre_node, *s.tether_nodes, s.winch_body])
         self.ring_pairs = s.ring_pairs
         self.corners = s.corner_bodies
@@ -403,7 +438,7 @@ class MarkerBuilder:
     def _points(xyz):
         from geometry_msgs.msg import Point
 
-        return [Point(x=float(a), y=float(b), z=float(c)) for a, b, c in xyz.tolist()]
+        return [Point(x=a, y=b, z=c) for a, b, c in xyz.tolist()]
 
     def build(self, sim):
         from std_msgs.msg import ColorRGBA
@@ -424,23 +459,27 @@ class MarkerBuilder:
             out.markers.append(mk)
             return mk
 
-        mk = marker("net_threads", 0, Marker.LINE_LIST, (0.9, 0.9, 0.2, 1.0), (0.03, 0.0, 0.0))
-        mk.points = self._points(x[self.thread_ends].reshape(-1, 3))
-        mk = marker("closing_ring", 1, Marker.LINE_LIST, (1.0, 0.2, 0.2, 1.0), (0.08, 0.0, 0.0))
+        yellow = (0.9, 0.9, 0.2, 1.0)
+        marker("net_rows", 0, Marker.LINE_STRIP, yellow, (0.03, 0.0, 0.0)).points = \
+            self._points(x[self.row_snake])
+        marker("net_columns", 1, Marker.LINE_STRIP, yellow, (0.03, 0.0, 0.0)).points = \
+            self._points(x[self.col_snake])
+        marker("corner_threads", 2, Marker.LINE_LIST, yellow, (0.03, 0.0, 0.0)).points = \
+            self._points(x[self.corner_threads].reshape(-1, 3))
+        mk = marker("closing_ring", 3, Marker.LINE_LIST, (1.0, 0.2, 0.2, 1.0), (0.08, 0.0, 0.0))
         mk.points = self._points(x[self.ring_pairs].reshape(-1, 3))
         green, red = ColorRGBA(r=0.1, g=0.9, b=0.1, a=1.0), ColorRGBA(r=1.0, g=0.2, b=0.2, a=1.0)
         mk.colors = [green if lk else red for lk in s.pair_locked for _ in (0, 1)]
-        mk = marker("corner_masses", 2, Marker.SPHERE_LIST, (0.2, 0.4, 1.0, 1.0), (0.3, 0.3, 0.3))
-        mk.points = self._points(x[self.corners])
-        mk = marker("main_tether", 3, Marker.LINE_STRIP, (0.8, 0.8, 0.8, 1.0), (0.03, 0.0, 0.0))
-        mk.points = self._points(x[self.tether_chain])
-        mk = marker("target", 4, Marker.CYLINDER, (0.6, 0.6, 0.65, 0.8), self.target_scale)
+        marker("corner_masses", 4, Marker.SPHERE_LIST, (0.2, 0.4, 1.0, 1.0), (0.3, 0.3, 0.3)).points = \
+            self._points(x[self.corners])
+        marker("main_tether", 5, Marker.LINE_STRIP, (0.8, 0.8, 0.8, 1.0), (0.03, 0.0, 0.0)).points = \
+            self._points(x[self.tether_chain])
+        mk = marker("target", 6, Marker.CYLINDER, (0.6, 0.6, 0.65, 0.8), self.target_scale)
         p, o = mk.pose.position, mk.pose.orientation
         p.x, p.y, p.z = (float(v) for v in s.tgt_pos)
         # the cylinder marker's axis is its local z; the stage's long axis is body x
-        w, qx, qy, qz = _quat_mul(s.tgt_quat, (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
-        o.w, o.x, o.y, o.z = w, qx, qy, qz
-        mk = marker("chaser", 5, Marker.CUBE, (0.3, 0.3, 0.3, 1.0), (self.chaser_side,) * 3)
+        o.w, o.x, o.y, o.z = _quat_mul(s.tgt_quat, (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
+        mk = marker("chaser", 7, Marker.CUBE, (0.3, 0.3, 0.3, 1.0), (self.chaser_side,) * 3)
         # the winch sits at the launch point on the cube's +z face
         cx, cy, cz = (float(v) for v in x[self.winch])
         mk.pose.position.x, mk.pose.position.y, mk.pose.position.z = cx, cy, cz - self.chaser_side / 2

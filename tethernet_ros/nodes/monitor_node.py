@@ -33,11 +33,11 @@ class MonitorNode(Node):
         t = lambda k: common.topic(self, k)  # noqa: E731
         sq, cq = common.state_qos(int(common.param(self, "queue_depth"))), common.command_qos()
         self.frame_id = common.param(self, "frame_id")
+        self._warm_up()
         self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"), sq)
         self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), cq)
         self.setup = None
-        self.launch = None
-        self.closing = None
+        self.commands = convert.CommandBuffer()
         self.mirror: StateMirror | None = None
         self.decided = False
         self.pending: deque = deque(maxlen=MAX_PENDING)
@@ -47,31 +47,45 @@ class MonitorNode(Node):
         self.create_subscription(NetState, t("net_state"), self.on_state, sq)
         self.get_logger().info("ready")
 
+    @staticmethod
+    def _warm_up() -> None:
+        """Load the core's compiled helpers now, not while the first episode's states queue."""
+        from ..core.config import SimConfig
+        from ..core.design import REFERENCE_DESIGNS
+        from ..core.scenario import actions_for, world_for
+
+        d = REFERENCE_DESIGNS["baseline"]
+        mirror = StateMirror(d, actions_for(d, None), world_for(d, None), SimConfig())
+        mirror.terms()
+        mirror.verdict()
+
     def on_setup(self, msg) -> None:
         try:
             self.setup = convert.setup_from_msg(msg)
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"episode {msg.episode_id!r} rejected: {exc}")
             self.setup = None
-        self.launch = self.closing = self.mirror = None
+        self.mirror = None
         self.decided = False
         self.pending.clear()
+        self._maybe_build()
 
     def on_launch(self, msg) -> None:
-        if self.setup is not None and convert.same_stamp(msg.header, self.setup.stamp):
-            self.launch = msg
-            self._maybe_build()
+        self.commands.put(msg.header, "launch", msg)
+        self._maybe_build()
 
     def on_closing(self, msg) -> None:
-        if self.setup is not None and convert.same_stamp(msg.header, self.setup.stamp):
-            self.closing = msg
-            self._maybe_build()
+        self.commands.put(msg.header, "closing", msg)
+        self._maybe_build()
 
     def _maybe_build(self) -> None:
-        if self.mirror is not None or self.launch is None or self.closing is None:
+        if self.setup is None or self.mirror is not None:
+            return
+        launch, closing = self.commands.get(self.setup.stamp)
+        if launch is None or closing is None:
             return
         try:
-            actions, world = convert.actions_world_from_msgs(self.launch, self.closing)
+            actions, world = convert.actions_world_from_msgs(launch, closing)
             self.mirror = StateMirror(self.setup.design, actions, world, self.setup.config)
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"episode {self.setup.episode_id!r}: {exc}")

@@ -15,7 +15,6 @@ which arrives before the first step, so nothing depends on message timing.
 """
 from __future__ import annotations
 
-import math
 import threading
 import time
 
@@ -84,8 +83,7 @@ class SimNode(Node):
         self.pub_result = node.create_publisher(EpisodeResult, t("result"), cq)
         self._lock = threading.Lock()
         self._setup = None
-        self._launch = None
-        self._closing = None
+        self._commands = convert.CommandBuffer()
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
         node.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
@@ -118,29 +116,29 @@ class SimNode(Node):
                 log.error(f"episode {msg.episode_id!r} rejected: {exc}")
                 self._setup = None
                 return
-            self._launch = self._closing = None
         self._maybe_start()
 
     def on_launch(self, msg) -> None:
         with self._lock:
-            if self._setup is not None and convert.same_stamp(msg.header, self._setup.stamp):
-                self._launch = msg
+            self._commands.put(msg.header, "launch", msg)
         self._maybe_start()
 
     def on_closing(self, msg) -> None:
         with self._lock:
-            if self._setup is not None and convert.same_stamp(msg.header, self._setup.stamp):
-                self._closing = msg
+            self._commands.put(msg.header, "closing", msg)
         self._maybe_start()
 
     def _maybe_start(self) -> None:
         with self._lock:
-            if self._setup is None or self._launch is None or self._closing is None:
+            if self._setup is None:
+                return
+            launch, closing = self._commands.get(self._setup.stamp)
+            if launch is None or closing is None:
                 return
             if self._worker is not None and self._worker.is_alive():
                 return
-            setup, launch, closing = self._setup, self._launch, self._closing
-            self._setup = self._launch = self._closing = None
+            setup = self._setup
+            self._setup = None
             self._worker = threading.Thread(target=self._run_episode, args=(setup, launch, closing),
                                             name="episode", daemon=True)
             self._worker.start()
@@ -162,8 +160,13 @@ class SimNode(Node):
         rtf = float(self._p("real_time_factor"))
         markers = convert.MarkerBuilder(scenario, self.frame_id)
         t_wall0 = time.monotonic()
+        marker_step = [-1]
 
-        def publish(sim, final: bool = False):
+        def publish_markers(sim):
+            marker_step[0] = sim.step
+            self.pub_markers.publish(markers.build(sim))
+
+        def publish(sim):
             if rtf > 0:
                 delay = t_wall0 + sim.time / rtf - time.monotonic()
                 if delay > 0:
@@ -171,8 +174,8 @@ class SimNode(Node):
             self.pub_clock.publish(convert.clock_msg(sim.time))
             self.pub_state.publish(convert.net_state_msg(sim, self.frame_id))
             self.pub_pose.publish(convert.target_pose_msg(sim, self.frame_id))
-            if marker_every and (final or sim.step % marker_every == 0):
-                self.pub_markers.publish(markers.build(sim))
+            if marker_every and sim.step % marker_every == 0:
+                publish_markers(sim)
 
         sim = PublishingSimulation(scenario, every, publish, self._stop.is_set)
         n_subs = int(self._p("min_state_subscribers"))
@@ -183,14 +186,19 @@ class SimNode(Node):
         try:
             sim.publish()                                   # the initial state
             result = run_simulation(sim, record_trace=False)
-            sim.on_publish = lambda s: publish(s, final=True)
             sim.publish()                                   # the final state (if not yet)
+            if marker_every and marker_step[0] != sim.step:
+                publish_markers(sim)                        # ... and its markers
+            result.seed = setup.seed
+            self.pub_result.publish(convert.episode_result_msg(result, setup.episode_id,
+                                                               setup.seed is None, sim.time))
         except EpisodeAborted:
             log.warning(f"episode {setup.episode_id!r} aborted at t = {sim.time:.3f} s")
             return
-        result.seed = setup.seed
-        self.pub_result.publish(convert.episode_result_msg(result, setup.episode_id,
-                                                           setup.seed is None, sim.time))
+        except Exception as exc:  # noqa: BLE001 - e.g. publishing after shutdown began
+            if not self._stop.is_set():
+                log.error(f"episode {setup.episode_id!r} failed at t = {sim.time:.3f} s: {exc}")
+            return
         verdict = "success" if result.success else f"failure ({result.failure_reason})"
         log.info(f"episode {setup.episode_id!r} done: {verdict}, T = {result.completion_time:.3f} s, "
                  f"wall {result.wall_time:.2f} s")

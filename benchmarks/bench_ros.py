@@ -1,0 +1,139 @@
+"""Wall time of one capture through the ROS 2 node suite against the direct library call,
+and the largest state publish rate the suite keeps up with.  Prints numbers; no asserts.
+
+    .venv/bin/python benchmarks/bench_ros.py [--design time-min] [--seed 3]
+        [--rates 10,30,100,300,1000] [--sweep-settle 2.0] [--repeat 2]
+
+1. Ratio: the same episode (SPEC configuration) run by ``run_episode`` in this process
+   (kernels warm) and by a warm suite (nodes already started, bag recorded, default
+   publish rate); best of ``--repeat`` each.  Goal: ratio <= 1.3.
+2. Rates: a fresh suite per publish rate (Hz of simulated time), short scenario
+   (``--sweep-settle``).  The suite keeps up at a rate when every published state reaches
+   the monitor and the recorder (bag counts) and the monitor's verdict follows the
+   simulation's result by under 0.5 s (no backlog).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+from tethernet_ros.bags import read_bag  # noqa: E402
+from tethernet_ros.core.config import SimConfig  # noqa: E402
+from tethernet_ros.core.design import load_design  # noqa: E402
+from tethernet_ros.core.episode import run_episode  # noqa: E402
+from tethernet_ros.core.noise import NoiseModel  # noqa: E402
+from tethernet_ros.nodes.common import DEFAULTS, TOPICS  # noqa: E402
+from tethernet_ros.ros_capture import RosSuite  # noqa: E402
+
+
+def cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc), s."""
+    try:
+        f = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(f[11]) + int(f[12])) / os.sysconf("SC_CLK_TCK")
+    except OSError:
+        return float("nan")
+
+
+def bag_stats(path) -> dict:
+    c = read_bag(path, decode=False)
+    counts = c.counts()
+    by = {m.topic: m.log_time for m in c.messages}   # last log time per topic
+    lag = (by.get(TOPICS["verdict"], 0) - by.get(TOPICS["result"], 0)) * 1e-9
+    return {"states": counts.get(TOPICS["net_state"], 0),
+            "metrics": counts.get(TOPICS["metrics"], 0),
+            "verdict_lag": lag, "size_mb": c.file_size / 1e6}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--design", default="time-min")
+    ap.add_argument("--seed", type=int, default=3)
+    ap.add_argument("--rates", default="10,30,100,300,1000")
+    ap.add_argument("--sweep-settle", type=float, default=2.0)
+    ap.add_argument("--repeat", type=int, default=2)
+    args = ap.parse_args(argv)
+    design = load_design(args.design)
+    noise = NoiseModel()
+    sample = noise.sample(args.seed)
+    tmp = Path(tempfile.mkdtemp(prefix="bench_ros_"))
+    default_rate = DEFAULTS["sim_node"]["publish_rate"]
+
+    run_episode(design, None, SimConfig(horizon=1.0))  # load the kernels in this process
+    direct, direct_cpu = [], []
+    for _ in range(args.repeat):
+        t, c = time.perf_counter(), time.process_time()
+        ref = run_episode(design, sample, SimConfig())
+        direct.append(time.perf_counter() - t)
+        direct_cpu.append(time.process_time() - c)
+    print(f"design {args.design}, seed {args.seed}: T = {ref.completion_time:.2f} s simulated, "
+          f"settled CQI {ref.settled_cqi:.4f}, n_L {ref.locked_pairs}")
+    print(f"direct run_episode (SPEC config)          best {min(direct):6.2f} s  "
+          f"({', '.join(f'{d:.2f}' for d in direct)})")
+
+    with RosSuite(config=SimConfig(), noise_model=noise, bag_dir=tmp / "bags") as suite:
+        suite_wall, cpu = [], []
+        for i in range(args.repeat):
+            c0 = {n: cpu_seconds(p.pid) for n, p in suite.procs.items()}
+            c0["client"] = time.process_time()
+            t = time.perf_counter()
+            res, bag = suite.capture(design, args.seed, bag_name=f"ratio{i}")
+            suite_wall.append(time.perf_counter() - t)
+            c1 = {n: cpu_seconds(p.pid) for n, p in suite.procs.items()}
+            c1["client"] = time.process_time()
+            cpu.append({n: c1[n] - c0[n] for n in c0})
+            assert res.settled_cqi == ref.settled_cqi
+        st = bag_stats(bag)
+    print(f"via ROS suite, {default_rate:g} Hz, bag recorded  best {min(suite_wall):6.2f} s  "
+          f"({', '.join(f'{d:.2f}' for d in suite_wall)}); {st['states']} states, "
+          f"bag {st['size_mb']:.2f} MB")
+    print(f"ratio ROS / direct: {min(suite_wall) / min(direct):.2f}  (goal <= 1.3)")
+    best = cpu[suite_wall.index(min(suite_wall))]
+    print("CPU s of that capture: " + ", ".join(f"{n} {v:.2f}" for n, v in best.items())
+          + f"; total {sum(best.values()):.2f} (direct call {min(direct_cpu):.2f}); "
+          f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}")
+
+    print(f"\npublish-rate sweep (settle time {args.sweep_settle:g} s):")
+    print(f"{'rate Hz':>8} {'states':>7} {'metrics':>8} {'lag s':>7} {'wall s':>7} "
+          f"{'direct s':>8} {'ratio':>6} {'bag MB':>7}  keeps up")
+    cfg = SimConfig(settle_time=args.sweep_settle)
+    t = time.perf_counter()
+    short = run_episode(design, sample, cfg)
+    short_wall = time.perf_counter() - t
+    best = None
+    for rate in [float(r) for r in args.rates.split(",")]:
+        try:
+            with RosSuite(config=cfg, noise_model=noise, bag_dir=tmp / f"bags{rate:g}",
+                          params={"sim_node": {"publish_rate": rate}}) as suite:
+                t = time.perf_counter()
+                res, bag = suite.capture(design, args.seed, bag_name="sweep")
+                wall = time.perf_counter() - t
+            st = bag_stats(bag)
+            ok = (st["states"] == st["metrics"] and st["verdict_lag"] < 0.5
+                  and res.settled_cqi == short.settled_cqi)
+        except Exception as exc:  # noqa: BLE001 - a failed rate is a data point
+            print(f"{rate:8g}  failed: {exc}")
+            break
+        print(f"{rate:8g} {st['states']:7d} {st['metrics']:8d} {st['verdict_lag']:7.3f} {wall:7.2f} "
+              f"{short_wall:8.2f} {wall / short_wall:6.2f} {st['size_mb']:7.2f}  {'yes' if ok else 'NO'}")
+        if ok:
+            best = rate
+        else:
+            break
+    print(f"largest publish rate kept up with: {best:g} Hz of simulated time" if best
+          else "the suite kept up with none of the rates")
+    import shutil
+
+    shutil.rmtree(tmp, ignore_errors=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,39 @@
+"""Launch the tethernet_ros capture suite on a full ROS 2 Jazzy install.
+
+    ros2 launch tethernet_ros tethernet.launch.py [params_file:=/path/to.yaml]
+    ros2 service call /tethernet/run_capture tethernet_msgs/srv/RunCapture \
+        "{design: {corner_mass: 2.05, net_side: 19.84, thread_radius: 0.001, \
+          distance_to_target: 16.14, launch_velocity: [4.02, 2.60, 8.88], \
+          closing_displacement: 2.26}, seed: 3, noise: {distance_scale: 1.0, \
+          orientation_scale: 1.0, speed_scale: 1.0, polar_scale: 1.0, azimuth_scale: 1.0, \
+          closing_scale: 1.0, orientation_axis: z}, record_bag: true}"
+
+Starts sim_node, monitor_node, actuator_node and capture_node with the parameters of
+config/tethernet.yaml (installed to share/tethernet_ros/config).  Without a ROS install
+(PyPI wheels only) use `tethernet capture --via ros`, which starts the same processes.
+"""
+import os
+
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
+
+
+def generate_launch_description():
+    default_params = os.path.join(get_package_share_directory("tethernet_ros"), "config",
+                                  "tethernet.yaml")
+    params_file = LaunchConfiguration("params_file")
+    actions = [
+        DeclareLaunchArgument("params_file", default_value=default_params,
+                              description="ROS parameter file of the suite"),
+        SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
+                               os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
+    ]
+    for name in NODES:
+        actions.append(Node(package="tethernet_ros", executable=name, name=name,
+                            output="screen", parameters=[params_file]))
+    return LaunchDescription(actions)

@@ -1,0 +1,245 @@
+"""Pieces of the ROS suite that need no node processes: bag writing/reading (atomic
+naming, incomplete marking, damage handling), message definitions, the state mirror that
+the monitor and replay use, parameter defaults, launch file and console scripts.
+"""
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
+
+from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
+from tethernet_msgs.msg import ClosingCommand, EpisodeResult, NetState  # noqa: E402
+
+from tethernet_ros.bags import (MARKER, BagError, BagWriter, message_definition,  # noqa: E402
+                                qos_profile, read_bag)
+from tethernet_ros.core.config import SimConfig  # noqa: E402
+from tethernet_ros.core.design import load_design  # noqa: E402
+from tethernet_ros.core.episode import run_episode, run_simulation  # noqa: E402
+from tethernet_ros.core.noise import NoiseModel  # noqa: E402
+from tethernet_ros.core.scenario import actions_for, build_scenario, world_for  # noqa: E402
+from tethernet_ros.monitoring import StateMirror  # noqa: E402
+from tethernet_ros.nodes import common, convert  # noqa: E402
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(120)]
+ROOT = Path(__file__).resolve().parent.parent
+STATE_T = "tethernet_msgs/msg/NetState"
+
+
+def _states(n: int) -> list[bytes]:
+    out = []
+    for i in range(n):
+        m = NetState()
+        m.step = i
+        m.sim_time = 0.1 * i
+        m.positions = [float(i) + 1e-3 * k for k in range(3 * 303)]
+        m.velocities = [0.5 * k for k in range(3 * 303)]
+        m.locked = [k < i % 13 for k in range(12)]
+        out.append(serialize_message(m))
+    return out
+
+
+def _write(path: Path, n: int = 40, chunk_size: int = 8 * 1024) -> BagWriter:
+    w = BagWriter(path, chunk_size=chunk_size, custom_data={"k": "v"})
+    w.add_topic("/s", STATE_T, qos_profile(1000))
+    w.add_topic("/c", "tethernet_msgs/msg/ClosingCommand")
+    w.write("/c", serialize_message(ClosingCommand(closing_displacement=1.5)), 1)
+    for i, data in enumerate(_states(n)):
+        w.write("/s", data, 10 + i)
+    return w
+
+
+def test_complete_bag_round_trip(tmp_path):
+    from rosbags.highlevel import AnyReader
+
+    w = _write(tmp_path / "good")
+    assert (tmp_path / "good.partial" / MARKER).is_file() and not (tmp_path / "good").exists()
+    path = w.close()
+    assert path == tmp_path / "good" and not (tmp_path / "good.partial").exists()
+    assert sorted(p.name for p in path.iterdir()) == ["good_0.mcap", "metadata.yaml"]
+    meta = yaml.safe_load((path / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["version"] == 9 and meta["message_count"] == 41 and meta["custom_data"] == {"k": "v"}
+    contents = read_bag(path)
+    assert contents.complete and contents.problems == [] and contents.counts() == {"/s": 40, "/c": 1}
+    expected = _states(40)
+    # (CDR padding bytes are not initialised by the serializer: compare the messages)
+    assert [deserialize_message(m.data, NetState) for m in contents.by_topic("/s")] == \
+        [deserialize_message(b, NetState) for b in expected]
+    assert contents.by_topic("/s")[7].msg.step == 7
+    with AnyReader([path]) as reader:
+        got = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()
+               if c.topic == "/s"]
+    assert [m.step for m in got] == list(range(40))
+    assert np.array_equal(got[3].positions, np.frombuffer(deserialize_message(expected[3], NetState).positions, dtype=float))
+
+
+def test_aborted_bag_is_marked_and_readable(tmp_path):
+    w = _write(tmp_path / "cut")
+    path = w.abort("the simulation stopped")
+    assert path == tmp_path / "cut.partial"
+    assert (path / MARKER).read_text().strip() == "incomplete: the simulation stopped"
+    assert not (path / "metadata.yaml").exists() and not (tmp_path / "cut").exists()
+    contents = read_bag(path)
+    assert not contents.complete and contents.counts() == {"/s": 40, "/c": 1}
+    assert any("the simulation stopped" in p for p in contents.problems)
+
+
+def test_writer_refuses_clobbering_and_bad_names(tmp_path):
+    _write(tmp_path / "a").close()
+    with pytest.raises(BagError, match="already exists"):
+        BagWriter(tmp_path / "a")
+    _write(tmp_path / "b")            # left unfinished (a writer that died)
+    with pytest.raises(BagError, match="unfinished"):
+        BagWriter(tmp_path / "b")
+    with pytest.raises(BagError, match="bag name"):
+        BagWriter(tmp_path / "x y")
+    with pytest.raises(BagError, match="does not exist"):
+        read_bag(tmp_path / "nothing")
+
+
+def test_damaged_files_are_read_up_to_the_damage(tmp_path):
+    path = _write(tmp_path / "d", n=60, chunk_size=4096).close()
+    mcap = path / "d_0.mcap"
+    data = mcap.read_bytes()
+    previous = -1
+    for frac in np.linspace(0.0, 0.98, 25):
+        mcap.write_bytes(data[: int(len(data) * frac)])
+        c = read_bag(path)                                   # never raises
+        assert not c.complete and c.problems
+        n = len(c.by_topic("/s"))
+        assert n >= previous and [m.msg.step for m in c.by_topic("/s")] == list(range(n))
+        previous = n
+    assert previous > 40
+    rng = np.random.default_rng(0)
+    for off in rng.integers(200, len(data) - 200, 15):
+        bad = bytearray(data)
+        bad[off:off + 64] = rng.integers(0, 256, 64, dtype=np.uint8).tobytes()
+        mcap.write_bytes(bytes(bad))
+        c = read_bag(path)                                   # never raises
+        steps = [m.msg.step for m in c.by_topic("/s") if m.msg is not None]
+        assert steps == list(range(len(steps)))
+
+
+def test_message_definitions_embed_every_nested_type():
+    from mcap_ros2._dynamic import generate_dynamic
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    text = message_definition("visualization_msgs/msg/MarkerArray")
+    for dep in ("visualization_msgs/Marker", "std_msgs/Header", "builtin_interfaces/Time",
+                "geometry_msgs/Point", "sensor_msgs/CompressedImage", "visualization_msgs/MeshFile"):
+        assert f"MSG: {dep}\n" in text
+    store = get_typestore(Stores.EMPTY)
+    for type_name in set(common.TOPIC_TYPES.values()):
+        assert type_name in generate_dynamic(type_name, message_definition(type_name))
+        parts = message_definition(type_name).split("=" * 80 + "\n")
+        store.register(get_types_from_msg(parts[0], type_name))
+
+
+def _episode_states(design, sample, cfg, every):
+    """States of an in-process episode as NetState messages through CDR, as the sim node
+    publishes them (same PublishingSimulation), plus the episode's result."""
+    from tethernet_ros.nodes.sim_node import PublishingSimulation
+
+    scen = build_scenario(design, actions_for(design, sample), world_for(design, sample), cfg)
+    msgs = []
+    sim = PublishingSimulation(scen, every, lambda s: msgs.append(
+        serialize_message(convert.net_state_msg(s))), lambda: False)
+    sim.publish()
+    result = run_simulation(sim, record_trace=False)
+    sim.publish()
+    return [deserialize_message(b, NetState) for b in msgs], result, scen
+
+
+@pytest.mark.parametrize("every", [1000, 4321])
+def test_state_mirror_gives_the_library_verdict(every):
+    """Publishing every k steps changes nothing, and the mirror's verdict from the
+    transported states is the library's result (the monitor's and replay's path)."""
+    design, noise, cfg = load_design("time-min"), NoiseModel(), SimConfig(settle_time=1.0)
+    sample = noise.sample(4)
+    ref = run_episode(design, sample, cfg, record_trace=False)
+    states, result, _ = _episode_states(design, sample, cfg, every)
+    assert convert.compare_results(result, ref) == ""
+    assert states[-1].sim_time == ref.completion_time
+    mirror = StateMirror(design, actions_for(design, sample), world_for(design, sample), cfg)
+    verdicts = []
+    for m in states:
+        mirror.load(convert.state_from_msg(m))
+        v = mirror.verdict()
+        if v is not None:
+            verdicts.append((m.step, v))
+    assert len(verdicts) == 1 and verdicts[0][0] == states[-1].step
+    assert convert.compare_results(verdicts[0][1], ref) == ""
+    res_msg = deserialize_message(serialize_message(
+        convert.episode_result_msg(ref, "e", False)), EpisodeResult)
+    assert convert.compare_results(convert.episode_result_from_msg(res_msg), ref) == ""
+
+
+def test_mirror_never_triggered_and_divergence():
+    design = load_design("baseline")
+    cfg = SimConfig(horizon=1.0)                # closing cannot trigger in 1 s
+    ref = run_episode(design, None, cfg, record_trace=False)
+    assert not math.isfinite(ref.settled_cqi) and "never triggered" in ref.failure_reason
+    states, _, _ = _episode_states(design, None, cfg, 2000)
+    mirror = StateMirror(design, actions_for(design, None), world_for(design, None), cfg)
+    mirror.load(convert.state_from_msg(states[-1]))
+    assert convert.compare_results(mirror.verdict(), ref) == ""
+    # a non-finite state at a check step ends the episode as run_simulation would
+    st = convert.state_from_msg(states[1])
+    st.step = mirror.check_every
+    st.positions[5, 0] = math.nan
+    mirror.load(st)
+    assert mirror.terms() is None                # no CQI of a non-finite state
+    v = mirror.verdict()
+    assert v is not None and not v.success and v.failure_reason.startswith("simulation diverged")
+
+
+def test_request_validation_names_the_field():
+    from tethernet_msgs.msg import NoiseSettings
+
+    d = convert.design_msg(load_design("time-min"))
+    d.thread_radius = -1.0
+    with pytest.raises(convert.RequestError, match=r"^design\.thread_radius: \(r_n\)"):
+        convert.design_from_msg(d)
+    n = convert.noise_settings_msg(NoiseModel())
+    n.closing_scale = 101.0
+    with pytest.raises(convert.RequestError, match=r"^noise\.closing_scale"):
+        convert.noise_model_from_msg(n)
+    assert convert.noise_model_from_msg(NoiseSettings()).scales["speed"] == 0.0
+
+
+def test_parameter_file_matches_node_defaults():
+    doc = yaml.safe_load((ROOT / "config" / "tethernet.yaml").read_text())
+
+    def flat(d, prefix=""):
+        out = {}
+        for k, v in d.items():
+            if isinstance(v, dict):
+                out.update(flat(v, f"{prefix}{k}."))
+            else:
+                out[f"{prefix}{k}"] = v
+        return out
+
+    shared = flat(doc["/**"]["ros__parameters"])
+    for node, defaults in common.DEFAULTS.items():
+        merged = {**shared, **flat(doc[f"/{node}"]["ros__parameters"])}
+        declared = {k: merged[k] for k in defaults}            # every default is in the file
+        assert declared == defaults, node
+        for k, v in defaults.items():                          # same types (rclpy is strict)
+            assert type(merged[k]) is type(v), (node, k)
+
+
+def test_launch_file_and_console_scripts():
+    launch = (ROOT / "launch" / "tethernet.launch.py").read_text()
+    tree = ast.parse(launch)
+    assert any(isinstance(n, ast.FunctionDef) and n.name == "generate_launch_description"
+               for n in tree.body)
+    setup = (ROOT / "setup.py").read_text()
+    for node in common.DEFAULTS:
+        assert f'"{node}"' in launch
+        assert f"{node} = tethernet_ros.nodes.{node}:main" in setup

@@ -1,0 +1,356 @@
+"""The ROS 2 node suite with its nodes as separate processes (real rclpy, Fast DDS).
+
+One suite (sim, monitor, actuator and capture nodes) serves the module; a short scenario
+(settle time 2 s instead of 20 s) keeps each episode to a couple of seconds.  Checks:
+via-ROS result == in-process result bit for bit; the bag decoded by rosbags and by
+mcap-ros2-support; `tethernet replay` on good, truncated and corrupted bags; invalid
+requests answered with the field named while the node keeps serving; a simulation node
+killed mid-episode gives the caller a clear timeout error and an incomplete-marked bag.
+The last test runs `tethernet capture --via ros` (default SPEC configuration) as a user
+would.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
+
+from tethernet_ros.bags import MARKER, read_bag  # noqa: E402
+from tethernet_ros.core.config import SimConfig  # noqa: E402
+from tethernet_ros.core.design import load_design  # noqa: E402
+from tethernet_ros.core.episode import run_episode  # noqa: E402
+from tethernet_ros.core.metrics import capture_quality_index  # noqa: E402
+from tethernet_ros.core.noise import NoiseModel  # noqa: E402
+from tethernet_ros.core.scenario import (actions_for, grid_thread_pairs, scenario_for,  # noqa: E402
+                                         world_for)
+from tethernet_ros.nodes.common import DEFAULTS, TOPICS  # noqa: E402
+from tethernet_ros.ros_capture import RosSuite  # noqa: E402
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
+
+DESIGN = load_design("time-min")
+SEED = 3
+NOISE = NoiseModel()
+CONFIG = SimConfig(settle_time=2.0)      # short scenario; everything else the SPEC default
+PUBLISH_RATE = 10.0
+MARKER_RATE = 2.0
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def suite(tmp_path_factory):
+    bag_dir = tmp_path_factory.mktemp("bags")
+    s = RosSuite(config=CONFIG, noise_model=NOISE, bag_dir=bag_dir,
+                 log_dir=tmp_path_factory.mktemp("logs"),
+                 params={"capture_node": {"stall_timeout": 3.0, "start_timeout": 8.0,
+                                          "ready_timeout": 2.0},
+                         "sim_node": {"publish_rate": PUBLISH_RATE, "marker_rate": MARKER_RATE}})
+    # record every topic here (the default leaves out /clock and the target pose)
+    s.params["capture_node"]["record_topics"] = list(TOPICS)   # (written out by start())
+    s.start()
+    yield s
+    s.stop()
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return run_episode(DESIGN, NOISE.sample(SEED), CONFIG, record_trace=False)
+
+
+@pytest.fixture(scope="module")
+def captured(suite):
+    result, bag = suite.capture(DESIGN, SEED, bag_name="time-min_seed3")
+    return result, Path(bag)
+
+
+def same(a: float, b: float) -> bool:
+    return (math.isnan(a) and math.isnan(b)) or a == b
+
+
+def assert_same_result(r, ref):
+    assert r.success == ref.success
+    assert r.locked_pairs == ref.locked_pairs
+    assert same(r.settled_cqi, ref.settled_cqi)          # bit for bit
+    assert same(r.completion_time, ref.completion_time)
+    assert same(r.closing_time, ref.closing_time)
+    assert r.failure_reason == ref.failure_reason
+    assert r.mass == ref.mass
+
+
+# --- results --------------------------------------------------------------------------------
+def test_via_ros_equals_library(captured, reference):
+    result, bag = captured
+    assert_same_result(result, reference)
+    assert result.seed == SEED
+    assert result.settled_terms == reference.settled_terms
+    assert bag.is_dir() and bag.name == "time-min_seed3"
+    # the client's trace is the monitor's metrics series, ending at the settled reading
+    assert result.trace.time[-1] == reference.completion_time
+    assert result.trace.cqi[-1] == reference.settled_cqi
+
+
+# --- the bag ----------------------------------------------------------------------------------
+def expected_steps(final_step: int, every: int) -> list[int]:
+    steps = list(range(0, final_step + 1, every))
+    return steps if steps[-1] == final_step else steps + [final_step]
+
+
+def test_bag_with_rosbags(captured, reference):
+    from rosbags.highlevel import AnyReader
+
+    result, bag = captured
+    msgs: dict[str, list] = {}
+    with AnyReader([bag]) as reader:
+        types = {c.topic: c.msgtype for c in reader.connections}
+        for conn, _, raw in reader.messages():
+            msgs.setdefault(conn.topic, []).append(reader.deserialize(raw, conn.msgtype))
+    assert types == {
+        TOPICS["setup"]: "tethernet_msgs/msg/EpisodeSetup",
+        TOPICS["launch_command"]: "tethernet_msgs/msg/LaunchCommand",
+        TOPICS["closing_command"]: "tethernet_msgs/msg/ClosingCommand",
+        TOPICS["net_state"]: "tethernet_msgs/msg/NetState",
+        TOPICS["target_pose"]: "geometry_msgs/msg/PoseStamped",
+        TOPICS["markers"]: "visualization_msgs/msg/MarkerArray",
+        TOPICS["metrics"]: "tethernet_msgs/msg/CaptureMetrics",
+        TOPICS["result"]: "tethernet_msgs/msg/EpisodeResult",
+        TOPICS["verdict"]: "tethernet_msgs/msg/EpisodeResult",
+        TOPICS["clock"]: "rosgraph_msgs/msg/Clock",
+    }
+    # one setup, one of each command, one result, one verdict
+    for key in ("setup", "launch_command", "closing_command", "result", "verdict"):
+        assert len(msgs[TOPICS[key]]) == 1, key
+
+    sample = NOISE.sample(SEED)
+    setup = msgs[TOPICS["setup"]][0]
+    assert setup.seed == SEED and not setup.nominal and setup.episode_id == bag.name
+    assert setup.design.corner_mass == DESIGN.m_c
+    assert list(setup.design.launch_velocity) == list(DESIGN.V_e)
+    assert json.loads(setup.sim_config_json) == {"settle_time": 2.0}
+    actions, world = actions_for(DESIGN, sample), world_for(DESIGN, sample)
+    launch = msgs[TOPICS["launch_command"]][0]
+    assert np.array_equal(np.asarray(launch.corner_velocities).reshape(4, 3), actions.corner_velocities)
+    assert launch.distance_to_target == world.distance and launch.target_rotation == world.rotation
+    assert msgs[TOPICS["closing_command"]][0].closing_displacement == actions.closing_displacement
+
+    # states: every publish step from 0 to the final step, then clock/pose/metrics alike
+    scen = scenario_for(DESIGN, sample, CONFIG)
+    every = int(round(1.0 / (PUBLISH_RATE * scen.dt)))
+    final_step = int(round(reference.completion_time / scen.dt))
+    states = msgs[TOPICS["net_state"]]
+    assert [m.step for m in states] == expected_steps(final_step, every)
+    n = len(states)
+    for key in ("clock", "target_pose", "metrics"):
+        assert len(msgs[TOPICS[key]]) == n, key
+    assert [m.sim_time for m in msgs[TOPICS["metrics"]]] == [m.sim_time for m in states]
+    last = states[-1]
+    assert last.sim_time == reference.completion_time
+    assert (last.num_net_nodes, last.num_corner_masses, last.num_tether_nodes) == (289, 4, scen.n_bodies - 293)
+    pos = np.asarray(last.positions).reshape(-1, 3)
+    assert pos.shape == (scen.n_bodies, 3) and len(last.velocities) == 3 * scen.n_bodies
+    assert last.closing_active and sum(last.locked) == reference.locked_pairs
+    # the core's CQI of the recorded final state is the settled CQI
+    tgt = scen.target
+    terms = capture_quality_index(pos[:289], scen.mass[:289],
+                                  [last.target_pose.position.x, last.target_pose.position.y,
+                                   last.target_pose.position.z],
+                                  tgt.volume, tgt.area, tgt.min_surface_distance)
+    assert terms.cqi == reference.settled_cqi
+    assert msgs[TOPICS["metrics"]][-1].cqi == reference.settled_cqi
+    assert msgs[TOPICS["metrics"]][-1].locked_pairs == reference.locked_pairs
+    res, ver = msgs[TOPICS["result"]][0], msgs[TOPICS["verdict"]][0]
+    for r in (res, ver):
+        assert r.settled_cqi == reference.settled_cqi and r.locked_pairs == reference.locked_pairs
+        assert r.success == reference.success and r.completion_time == reference.completion_time
+    # markers: at the marker steps and the final state; net threads and the ring
+    marker_every = int(round(1.0 / (MARKER_RATE * scen.dt)))
+    markers = msgs[TOPICS["markers"]]
+    assert len(markers) == len([s for s in expected_steps(final_step, every)
+                                if s % marker_every == 0 or s == final_step])
+    ma = markers[-1].markers
+    assert [m.ns for m in ma] == ["net_rows", "net_columns", "corner_threads", "closing_ring",
+                                  "corner_masses", "main_tether", "target", "chaser"]
+    assert [len(m.points) for m in ma] == [289, 289, 8, 24, 4, scen.n_bodies - 293 + 1, 0, 0]
+    # every grid thread is a segment of the row or the column snake
+    pts = {(round(p.x, 12), round(p.y, 12), round(p.z, 12)) for p in ma[0].points}
+    assert len(pts) == 289 and (ma[0].points[0].x, ma[0].points[0].y, ma[0].points[0].z) == tuple(pos[0])
+    seg = set()
+    for m in ma[:2]:
+        q = [(p.x, p.y, p.z) for p in m.points]
+        seg |= {frozenset(e) for e in zip(q[:-1], q[1:])}
+    for a, b in grid_thread_pairs(17).tolist():
+        assert frozenset((tuple(pos[a]), tuple(pos[b]))) in seg
+    assert markers[-1].markers[0].header.stamp == last.header.stamp
+
+
+def test_bag_with_mcap_ros2_and_metadata(captured):
+    import yaml
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    _, bag = captured
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert meta["version"] == 9 and meta["storage_identifier"] == "mcap"
+    assert meta["relative_file_paths"] == [f"{bag.name}_0.mcap"]
+    assert not (bag / MARKER).exists()
+    counts: dict[str, int] = {}
+    with open(bag / meta["relative_file_paths"][0], "rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+            assert decoded is not None
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+            if schema.name == "tethernet_msgs/msg/NetState":
+                assert len(decoded.positions) == 3 * (decoded.num_net_nodes + decoded.num_corner_masses
+                                                      + decoded.num_tether_nodes)
+            assert "offered_qos_profiles" in channel.metadata
+            assert channel.metadata.get("topic_type_hash", "").startswith("RIHS01_")
+    listed = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    assert counts == listed
+    assert sum(counts.values()) == meta["message_count"]
+    for t in meta["topics_with_message_count"]:
+        assert t["topic_metadata"]["type_description_hash"].startswith("RIHS01_")
+
+
+# --- replay ------------------------------------------------------------------------------------
+def run_cli(*args, cwd=None, domain_id: str | None = None) -> subprocess.CompletedProcess:
+    env = dict(os.environ)
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = domain_id
+    return subprocess.run([sys.executable, "-m", "tethernet_ros.cli", *args], capture_output=True,
+                          text=True, cwd=cwd, env=env, timeout=300)
+
+
+def test_replay_good_bag(captured, reference):
+    _, bag = captured
+    out = run_cli("replay", str(bag), "--json")
+    assert out.returncode == 0, out.stderr
+    rep = json.loads(out.stdout)
+    assert rep["ok"] and rep["complete"] and rep["problems"] == []
+    assert rep["matches_result"] and rep["matches_verdict"]
+    assert rep["metrics_max_cqi_diff"] == 0.0 and rep["metrics_locked_pair_mismatches"] == 0
+    assert rep["recomputed"]["settled_cqi"] == reference.settled_cqi
+    text = run_cli("replay", str(bag))
+    assert text.returncode == 0 and "replay agrees with the recorded result" in text.stdout
+
+
+def test_replay_truncated_and_corrupted(captured, tmp_path):
+    from tethernet_ros.bags import copy_truncated
+
+    _, bag = captured
+    total = read_bag(bag, decode=False)
+    cut = copy_truncated(bag, tmp_path / "cut", 0.5)
+    out = run_cli("replay", str(cut), "--json")
+    assert out.returncode == 1 and "Traceback" not in out.stderr
+    rep = json.loads(out.stdout)
+    assert not rep["complete"] and not rep["ok"]
+    assert any("truncated" in p for p in rep["problems"])
+    assert 0 < rep["messages_read"] < len(total.messages)
+    assert 0 < rep["states"] and rep["recomputed"] is None      # the end was cut off
+    text = run_cli("replay", str(cut))
+    assert text.returncode == 1 and "truncated" in text.stdout and "Traceback" not in text.stderr
+
+    bad = copy_truncated(bag, tmp_path / "bad", 1.0)
+    f = next(bad.glob("*.mcap"))
+    data = bytearray(f.read_bytes())
+    mid = len(data) // 2
+    data[mid:mid + 256] = bytes(256)
+    f.write_bytes(bytes(data))
+    out = run_cli("replay", str(bad), "--json")
+    assert out.returncode == 1 and "Traceback" not in out.stderr
+    rep = json.loads(out.stdout)
+    assert not rep["ok"] and rep["problems"]
+    assert 0 < rep["messages_read"] < len(total.messages)
+
+    missing = run_cli("replay", str(tmp_path / "nothing"))
+    assert missing.returncode == 2 and "does not exist" in missing.stderr
+
+
+# --- faults --------------------------------------------------------------------------------------
+def test_bad_requests_are_refused_and_the_node_keeps_serving(suite, reference):
+    cases = []
+    r = suite.request(DESIGN, SEED)
+    r.design.corner_mass = float("nan")
+    cases.append((r, "design.corner_mass"))
+    r = suite.request(DESIGN, SEED)
+    r.design.launch_velocity = [1.0, 1.0, -3.0]
+    cases.append((r, "design.launch_velocity[2]"))
+    r = suite.request(DESIGN, SEED)
+    r.design.net_side = 1e9
+    cases.append((r, "design.net_side"))
+    r = suite.request(DESIGN, SEED)
+    r.noise.speed_scale = float("inf")
+    cases.append((r, "noise.speed_scale"))
+    r = suite.request(DESIGN, SEED)
+    r.noise.orientation_axis = "x"
+    cases.append((r, "noise.orientation_axis"))
+    cases.append((suite.request(DESIGN, SEED, bag_name="../escape"), "bag_name"))
+    cases.append((suite.request(DESIGN, SEED, bag_name="time-min_seed3"), "bag_name"))  # exists
+    for req, field in cases:
+        resp = suite.call(req, timeout=30)
+        assert not resp.accepted, field
+        assert resp.error.startswith(field), resp.error
+        assert "\n" not in resp.error
+    # ... and the next valid request (nominal, no bag) is served
+    nominal = run_episode(DESIGN, None, CONFIG, record_trace=False)
+    result, bag = suite.capture(DESIGN, None, record_bag=False)
+    assert bag is None
+    assert_same_result(result, nominal)
+    assert result.seed is None
+
+
+def test_sim_node_killed_mid_episode(suite):
+    """Last in the module: it leaves the suite without a simulation node."""
+    req = suite.request(load_design("baseline"), 5, bag_name="killed")
+    suite.metrics.clear()
+    future = suite.client.call_async(req)
+    assert suite.spin_until(lambda: len(suite.metrics) >= 3, timeout=120), "no states arrived"
+    suite.kill("sim_node")
+    assert suite.spin_until(future.done, timeout=30), "the service did not answer"
+    resp = future.result()
+    assert resp.accepted
+    assert resp.error.startswith("timed out") and "sim_node" in resp.error, resp.error
+    bag = Path(resp.bag_path)
+    assert bag.name == "killed.partial" and (bag / MARKER).is_file()
+    assert "timed out" in (bag / MARKER).read_text()
+    assert not (bag / "metadata.yaml").exists() and not bag.with_name("killed").exists()
+    contents = read_bag(bag)
+    assert not contents.complete and any("incomplete" in p for p in contents.problems)
+    assert contents.counts()[TOPICS["setup"]] == 1
+    out = run_cli("replay", str(bag))
+    assert out.returncode == 1 and "INCOMPLETE" in out.stdout and "Traceback" not in out.stderr
+    # the capture node still answers, saying what is missing (DDS may still list the dead
+    # node for a while: then the episode times out waiting for its first state)
+    resp = suite.call(suite.request(DESIGN, SEED, record_bag=False), timeout=60,
+                      check_processes=False)
+    assert resp.error.startswith(("suite not ready", "timed out: no state")), resp.error
+    assert "sim_node" in resp.error
+
+
+# --- the command line ----------------------------------------------------------------------------
+def test_cli_capture_via_ros_default_scenario(tmp_path):
+    """`tethernet capture --via ros` with the SPEC configuration (settle time 20 s)."""
+    ref = run_episode(DESIGN, NOISE.sample(SEED), SimConfig(), record_trace=False)
+    out = run_cli("capture", "--design", "time-min", "--seed", str(SEED), "--via", "ros",
+                  "--json", "--bag-name", "cli", cwd=tmp_path,
+                  # not the module suite's domain (it may still be running)
+                  domain_id=str((int(os.environ.get("ROS_DOMAIN_ID", "0")) + 1) % 200 + 1))
+    assert out.returncode == 0, out.stderr[-2000:]
+    got = json.loads(out.stdout)
+    assert got["success"] == ref.success and got["locked_pairs"] == ref.locked_pairs
+    assert got["settled_cqi"] == ref.settled_cqi
+    assert got["completion_time"] == ref.completion_time
+    assert got["closing_time"] == ref.closing_time
+    assert Path(got["bag_path"]) == (tmp_path / "bags" / "cli").resolve()
+    meta = yaml.safe_load((tmp_path / "bags" / "cli" / "metadata.yaml").read_text())
+    topics = {t["topic_metadata"]["name"] for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
+    assert topics == {TOPICS[k] for k in DEFAULTS["capture_node"]["record_topics"]}

@@ -1,0 +1,182 @@
+"""`tethernet replay BAG`: recompute CQI, n_L and the verdict from a recorded capture.
+
+The bag's EpisodeSetup, LaunchCommand and ClosingCommand rebuild the episode's scenario
+(:class:`~tethernet_ros.monitoring.StateMirror`); every recorded NetState is loaded into it
+and the core's CQI function, locked-pair count and verdict rules are applied.  The
+results are compared with the recorded CaptureMetrics, the simulation's EpisodeResult and
+the monitor's verdict.  A truncated or corrupted bag is read up to the damage and the
+damage is reported; exit status 1 then, or on any disagreement; 0 when everything
+matches.  No ROS installation is needed (mcap + mcap-ros2-support decode the bag).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from .common import print_json
+
+NAME = "replay"
+HELP = "recompute CQI, n_L and the verdict from a recorded bag and compare with its result"
+
+SETUP = "tethernet_msgs/msg/EpisodeSetup"
+LAUNCH = "tethernet_msgs/msg/LaunchCommand"
+CLOSING = "tethernet_msgs/msg/ClosingCommand"
+STATE = "tethernet_msgs/msg/NetState"
+METRICS = "tethernet_msgs/msg/CaptureMetrics"
+RESULT = "tethernet_msgs/msg/EpisodeResult"
+
+
+def add_arguments(p):
+    p.add_argument("bag", metavar="BAG", help="bag folder (metadata.yaml + .mcap) or .mcap file")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def _result_dict(r) -> dict | None:
+    if r is None:
+        return None
+    ct = r.closing_time
+    return {"success": bool(r.success), "settled_cqi": float(r.settled_cqi),
+            "locked_pairs": int(r.locked_pairs),
+            "closing_time": None if ct is None or ct != ct or ct < 0 else float(ct),
+            "completion_time": float(r.completion_time), "failure_reason": r.failure_reason}
+
+
+def replay(path) -> dict:
+    """Replay report of a bag (see the module docstring); raises BagError only if there
+    is no bag at ``path``."""
+    from ..bags import read_bag
+    from ..monitoring import StateMirror
+    from ..nodes import convert
+    from ..nodes.common import TOPICS
+
+    contents = read_bag(path, types={SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT})
+    problems = list(contents.problems)
+    report = {"bag": str(contents.path), "complete": contents.complete, "problems": problems,
+              "messages_read": len(contents.messages), "bytes_read": contents.bytes_read,
+              "file_size": contents.file_size}
+
+    def decoded(msgtype, topic=None):
+        return [m.msg for m in contents.messages
+                if m.msgtype == msgtype and m.msg is not None and (topic is None or m.topic == topic)]
+
+    setups, launches, closings = decoded(SETUP), decoded(LAUNCH), decoded(CLOSING)
+    states = sorted(decoded(STATE), key=lambda m: m.step)
+    metrics = decoded(METRICS)
+    results = [m for m in contents.messages if m.msgtype == RESULT and m.msg is not None]
+    sim_results = [m.msg for m in results if m.topic != TOPICS["verdict"]]
+    verdicts = [m.msg for m in results if m.topic == TOPICS["verdict"]]
+    report.update(states=len(states), metrics_recorded=len(metrics))
+    recomputed = None
+    mirror = None
+    if not setups or not launches or not closings:
+        missing = [n for n, v in (("EpisodeSetup", setups), ("LaunchCommand", launches),
+                                  ("ClosingCommand", closings)) if not v]
+        problems.append(f"cannot rebuild the scenario: no {', '.join(missing)} in the bag")
+    else:
+        try:
+            setup = convert.setup_from_msg(setups[0])
+            key = setup.stamp
+            launch = next((m for m in launches if convert.same_stamp(m.header, key)), launches[0])
+            closing = next((m for m in closings if convert.same_stamp(m.header, key)), closings[0])
+            actions, world = convert.actions_world_from_msgs(launch, closing)
+            mirror = StateMirror(setup.design, actions, world, setup.config)
+            report.update(episode_id=setup.episode_id, design=setup.design.to_dict(),
+                          seed=setup.seed, config_overrides=setups[0].sim_config_json)
+        except Exception as exc:  # noqa: BLE001 - a bag's content is reported, not raised
+            problems.append(f"cannot rebuild the scenario: {exc}")
+    if mirror is not None:
+        by_time = {}
+        for m in metrics:
+            by_time.setdefault(m.sim_time, m)
+        compared, max_diff, n_l_mismatch = 0, 0.0, 0
+        for msg in states:
+            try:
+                mirror.load(convert.state_from_msg(msg))
+            except Exception as exc:  # noqa: BLE001
+                problems.append(f"state at step {msg.step}: {exc}")
+                continue
+            terms = mirror.terms()
+            rec = by_time.get(msg.sim_time)
+            if rec is not None:
+                compared += 1
+                a = terms.cqi if terms else math.nan
+                if not (math.isnan(a) and math.isnan(rec.cqi)):
+                    max_diff = max(max_diff, abs(a - rec.cqi)) if not math.isnan(a - rec.cqi) else math.inf
+                n_l_mismatch += int(rec.locked_pairs != mirror.locked_pairs)
+            if recomputed is None:
+                recomputed = mirror.verdict()
+        report.update(metrics_compared=compared, metrics_max_cqi_diff=max_diff,
+                      metrics_locked_pair_mismatches=n_l_mismatch)
+        if states:
+            report.update(first_time=states[0].sim_time, last_time=states[-1].sim_time)
+        if recomputed is None and states:
+            problems.append(f"the recorded states end at t = {states[-1].sim_time:.3f} s, before "
+                            "the episode's end: no verdict can be recomputed")
+        if compared and (max_diff != 0.0 or n_l_mismatch):
+            problems.append(f"recorded metrics differ from the recomputed ones (max |dCQI| = "
+                            f"{max_diff:.3g}, {n_l_mismatch} n_L mismatches)")
+    report["recomputed"] = _result_dict(recomputed)
+    report["recorded_result"] = _result_dict(sim_results[-1]) if sim_results else None
+    report["recorded_verdict"] = _result_dict(verdicts[-1]) if verdicts else None
+    for key, recs in (("result", sim_results), ("verdict", verdicts)):
+        if recomputed is None or not recs:
+            report[f"matches_{key}"] = None
+            if not recs:
+                problems.append(f"no recorded {'EpisodeResult' if key == 'result' else 'monitor verdict'}")
+            continue
+        diff = convert.compare_results(recomputed, recs[-1])
+        report[f"matches_{key}"] = not diff
+        if diff:
+            problems.append(f"recomputed verdict differs from the recorded {key}: {diff}")
+    report["ok"] = (not problems and recomputed is not None
+                    and report.get("matches_result") is True)
+    return report
+
+
+def _fmt_result(r) -> str:
+    if r is None:
+        return "none"
+    verdict = "SUCCESS" if r["success"] else "FAILURE"
+    cqi = "n/a" if r["settled_cqi"] != r["settled_cqi"] else f"{r['settled_cqi']:.6g}"
+    text = f"{verdict}: settled CQI {cqi}, n_L {r['locked_pairs']}, T {r['completion_time']:.4f} s"
+    return text + (f" ({r['failure_reason']})" if r["failure_reason"] else "")
+
+
+def run(args) -> int:
+    from ..bags import BagError
+    from ..cli import UserError
+
+    try:
+        report = replay(Path(args.bag))
+    except BagError as exc:
+        raise UserError(str(exc)) from None
+    if args.json:
+        print_json(report)
+        return 0 if report["ok"] else 1
+    lines = [f"replay of {report['bag']}"
+             + (f" (episode {report['episode_id']}, seed "
+                f"{'nominal' if report.get('seed') is None else report['seed']})"
+                if "episode_id" in report else "")]
+    lines.append(f"  bag               {'complete' if report['complete'] else 'INCOMPLETE / DAMAGED'}: "
+                 f"{report['messages_read']} messages read, {report['bytes_read']} of "
+                 f"{report['file_size']} bytes")
+    if "first_time" in report:
+        lines.append(f"  states            {report['states']} (t = {report['first_time']:.3f} .. "
+                     f"{report['last_time']:.3f} s)")
+    else:
+        lines.append(f"  states            {report['states']}")
+    if "metrics_compared" in report:
+        lines.append(f"  metrics           {report['metrics_compared']} compared, max |dCQI| = "
+                     f"{report['metrics_max_cqi_diff']:.3g}, n_L mismatches "
+                     f"{report['metrics_locked_pair_mismatches']}")
+    lines.append(f"  recomputed        {_fmt_result(report['recomputed'])}")
+    for key, label in (("result", "recorded result"), ("verdict", "monitor verdict")):
+        m = report[f"matches_{key}"]
+        tag = "" if m is None else ("  -> match" if m else "  -> MISMATCH")
+        lines.append(f"  {label:<17} {_fmt_result(report[f'recorded_{key}'])}{tag}")
+    for p in report["problems"]:
+        lines.append(f"  problem           {p}")
+    lines.append("  => " + ("replay agrees with the recorded result" if report["ok"]
+                           else "replay could not confirm the recorded result"))
+    print("\n".join(lines))
+    return 0 if report["ok"] else 1

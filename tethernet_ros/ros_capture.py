@@ -1,0 +1,348 @@
+"""Run captures through the ROS 2 node suite, with the nodes as separate processes.
+
+:class:`RosSuite` starts ``sim_node``, ``monitor_node``, ``actuator_node`` and
+``capture_node`` (``python -m tethernet_ros.nodes.<name>``), talks to the RunCapture
+service from a client node in this process, and stops the nodes (SIGINT, then SIGTERM,
+then SIGKILL).  :func:`capture_via_ros` is one capture on a fresh suite; it is what
+``tethernet capture --via ros`` calls.
+
+Processes get ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless the environment sets it, and
+ROS_DOMAIN_ID from the environment, or else a private domain derived from this process id
+so that simultaneous runs do not hear each other.  Node output goes to log files in
+``log_dir`` (a temporary folder unless given); errors quote the last lines.
+"""
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from .cli import UserError
+from .core.config import SimConfig
+from .core.design import Design
+from .core.episode import EpisodeResult, EpisodeTrace
+from .core.noise import NoiseModel
+
+NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+
+
+class RosCaptureError(UserError):
+    """A capture through the suite failed (a node died, timed out or refused); one line."""
+
+
+def default_params_file() -> Path | None:
+    """config/tethernet.yaml of the source tree, or of the installed share/ folder."""
+    candidates = [PACKAGE_ROOT / "config" / "tethernet.yaml",
+                  Path(sys.prefix) / "share" / "tethernet_ros" / "config" / "tethernet.yaml"]
+    for p in candidates:
+        if p.is_file():
+            return p
+    return None
+
+
+def suite_environment(env: dict | None = None) -> dict:
+    env = dict(os.environ if env is None else env)
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    env.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+    env.setdefault("PYTHONUNBUFFERED", "1")
+    env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
+    return env
+
+
+def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: str | Path,
+                    extra: dict | None = None) -> dict:
+    """ROS parameters (per node) that carry a SimConfig and a noise model's spreads."""
+    import json
+
+    base = SimConfig().to_dict()
+    rest = {k: v for k, v in config.to_dict().items()
+            if v != base[k] and k not in ("settle_time", "horizon")}
+    params = {
+        "capture_node": {"settle_time": float(config.settle_time), "horizon": float(config.horizon),
+                         "sim_config": json.dumps(rest, sort_keys=True),
+                         "bag_dir": str(bag_dir)},
+        "actuator_node": {},
+        "sim_node": {},
+        "monitor_node": {},
+    }
+    if noise_model is not None:
+        for k in ("sigma_distance", "sigma_orientation_deg", "sigma_speed", "sigma_polar_deg",
+                  "azimuth_range_deg", "sigma_closing"):
+            params["actuator_node"][f"noise.{k}"] = float(getattr(noise_model, k))
+    for node, values in (extra or {}).items():
+        params.setdefault(node, {}).update(values)
+    return params
+
+
+def _signal_text(code: int) -> str:
+    if code < 0:
+        try:
+            return f"killed by signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"killed by signal {-code}"
+    return f"exit status {code}"
+
+
+class RosSuite:
+    """The four nodes as processes plus a client in this process.
+
+    config: SimConfig of the episodes (carried by capture_node parameters); noise_model:
+    its spreads become actuator_node parameters (scales travel with each request);
+    params: extra parameters per node, e.g. ``{"sim_node": {"publish_rate": 50.0}}``.
+    """
+
+    def __init__(self, config: SimConfig | None = None, noise_model: NoiseModel | None = None,
+                 params: dict | None = None, bag_dir: str | Path = "bags",
+                 log_dir: str | Path | None = None, env: dict | None = None):
+        self.config = config or SimConfig()
+        self.noise_model = noise_model
+        self.bag_dir = Path(bag_dir)
+        self._tmp = None
+        if log_dir is None:
+            self._tmp = tempfile.TemporaryDirectory(prefix="tethernet_ros_")
+            log_dir = self._tmp.name
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.params = node_parameters(self.config, noise_model, self.bag_dir, params)
+        self.env = suite_environment(env)
+        self.procs: dict[str, subprocess.Popen] = {}
+        self._logs = {}
+        self._context = None
+        self._node = None
+        self._client = None
+        self._metrics: list = []
+        self._executor = None
+
+    # -- processes -----------------------------------------------------------------------
+    def _write_params(self) -> Path:
+        import yaml
+
+        path = self.log_dir / "params.yaml"
+        doc = {f"/{node}": {"ros__parameters": values} for node, values in self.params.items()
+               if values}
+        path.write_text(yaml.safe_dump(doc, sort_keys=True))
+        return path
+
+    def start(self, timeout: float = 300.0) -> "RosSuite":
+        """Start the nodes and wait until the service is up and every node has joined
+        the graph (the simulation node joins after loading its numba kernels, which can
+        take minutes when they must be compiled)."""
+        overrides = self._write_params()
+        defaults = default_params_file()
+        for name in NODES:
+            cmd = [sys.executable, "-m", f"tethernet_ros.nodes.{name}", "--ros-args"]
+            if defaults is not None:
+                cmd += ["--params-file", str(defaults)]
+            cmd += ["--params-file", str(overrides)]
+            log = open(self.log_dir / f"{name}.log", "wb")
+            self._logs[name] = log
+            self.procs[name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                                                stdin=subprocess.DEVNULL, env=self.env,
+                                                start_new_session=True)
+        try:
+            self._start_client()
+            deadline = time.monotonic() + timeout
+            while not (self._client.wait_for_service(timeout_sec=0.1) and not self.missing()):
+                self.check_alive("while starting")
+                if time.monotonic() > deadline:
+                    raise RosCaptureError(f"timed out after {timeout:g} s waiting for the suite: "
+                                          f"{self.missing() or 'no RunCapture service'} "
+                                          f"(logs: {self.log_dir})")
+        except BaseException:
+            self.stop()
+            raise
+        return self
+
+    def _start_client(self) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from tethernet_msgs.msg import CaptureMetrics
+        from tethernet_msgs.srv import RunCapture
+
+        from .nodes import common
+
+        self._context = rclpy.Context()
+        self._context.init(domain_id=int(self.env["ROS_DOMAIN_ID"]))
+        self._node = rclpy.create_node(f"tethernet_client_{os.getpid()}", context=self._context)
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self._node)
+        self._client = self._node.create_client(RunCapture, common.SERVICE)
+        self._node.create_subscription(CaptureMetrics, common.TOPICS["metrics"],
+                                       self._metrics.append, common.state_qos(1000))
+
+    def missing(self) -> str:
+        """'' if every suite topic has its subscribers and publishers in the graph."""
+        from .nodes import common
+
+        out = []
+        for key, n in common.REQUIRED_SUBSCRIBERS.items():
+            if self._node.count_subscribers(common.TOPICS[key]) < n:
+                out.append(f"{common.TOPICS[key]} lacks subscribers")
+        for key in common.REQUIRED_PUBLISHERS:
+            if self._node.count_publishers(common.TOPICS[key]) < 1:
+                out.append(f"no publisher on {common.TOPICS[key]}")
+        return "; ".join(out)
+
+    def log_tail(self, name: str, lines: int = 5) -> str:
+        try:
+            text = (self.log_dir / f"{name}.log").read_text(errors="replace").strip().splitlines()
+        except OSError:
+            return ""
+        return " | ".join(line.strip() for line in text[-lines:])
+
+    def check_alive(self, when: str = "during the capture") -> None:
+        for name, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None:
+                tail = self.log_tail(name)
+                raise RosCaptureError(f"{name} (pid {proc.pid}) stopped {when} "
+                                      f"({_signal_text(code)})" + (f"; log: {tail}" if tail else ""))
+
+    def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
+        """Send a signal to one node (fault-injection for tests)."""
+        os.kill(self.procs[name].pid, sig)
+
+    def stop(self, timeout: float = 10.0) -> dict[str, int]:
+        """Stop every node: SIGINT, then SIGTERM, then SIGKILL.  Returns exit statuses."""
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                try:
+                    proc.send_signal(signal.SIGINT)
+                except ProcessLookupError:
+                    pass
+        deadline = time.monotonic() + timeout
+        codes = {}
+        for name, proc in self.procs.items():
+            for sig in (None, signal.SIGTERM, signal.SIGKILL):
+                if sig is not None and proc.poll() is None:
+                    proc.send_signal(sig)
+                try:
+                    proc.wait(timeout=max(0.1, deadline - time.monotonic()) if sig is None else 3.0)
+                    break
+                except subprocess.TimeoutExpired:
+                    continue
+            codes[name] = proc.returncode
+        for log in self._logs.values():
+            log.close()
+        self._logs = {}
+        if self._node is not None:
+            self._executor.shutdown()
+            self._node.destroy_node()
+            self._context.try_shutdown()
+            self._node = self._context = self._executor = None
+        self.procs = {}
+        return codes
+
+    def __enter__(self) -> "RosSuite":
+        return self.start() if not self.procs else self
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
+        if self._tmp is not None and exc[0] is None:
+            self._tmp.cleanup()
+
+    # -- requests ------------------------------------------------------------------------
+    def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
+                record_bag: bool = True, bag_name: str | None = None):
+        from tethernet_msgs.srv import RunCapture
+
+        from .nodes import convert
+
+        req = RunCapture.Request()
+        req.design = convert.design_msg(design)
+        req.nominal = seed is None
+        req.seed = 0 if seed is None else int(seed)
+        req.noise = convert.noise_settings_msg(noise_model or self.noise_model or NoiseModel())
+        req.record_bag = bool(record_bag)
+        req.bag_name = bag_name or ""
+        return req
+
+    def spin_until(self, predicate, timeout: float) -> bool:
+        """Spin the client until ``predicate()`` is true (or timeout s); returns it."""
+        deadline = time.monotonic() + timeout
+        while not predicate() and time.monotonic() < deadline:
+            self._executor.spin_once(timeout_sec=0.05)
+        return bool(predicate())
+
+    @property
+    def client(self):
+        return self._client
+
+    @property
+    def metrics(self) -> list:
+        """CaptureMetrics received by the client during the last call."""
+        return self._metrics
+
+    def call(self, request, timeout: float = 900.0, check_processes: bool = True):
+        """Send a RunCapture request; the response (raises RosCaptureError on timeout or,
+        if ``check_processes``, when a node process dies)."""
+        self._metrics.clear()
+        future = self._client.call_async(request)
+        deadline = time.monotonic() + timeout
+        while not future.done():
+            self._executor.spin_once(timeout_sec=0.05)
+            if check_processes:
+                self.check_alive()
+            if time.monotonic() > deadline:
+                self._client.remove_pending_request(future)
+                raise RosCaptureError(f"timed out after {timeout:g} s waiting for the RunCapture "
+                                      f"response (logs: {self.log_dir})")
+        # metrics published just before the response may still be queued here
+        for _ in range(5):
+            self._executor.spin_once(timeout_sec=0.01)
+        return future.result()
+
+    def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
+                record_bag: bool = True, bag_name: str | None = None,
+                timeout: float = 900.0) -> tuple[EpisodeResult, str | None]:
+        from .nodes import convert
+
+        resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name), timeout)
+        if not resp.accepted:
+            raise RosCaptureError(f"request refused: {resp.error}")
+        if resp.error:
+            raise RosCaptureError(resp.error + (f" (bag: {resp.bag_path})" if resp.bag_path else ""))
+        result = convert.episode_result_from_msg(resp.result)
+        result.trace = self._trace()
+        if result.trace.time and math.isfinite(result.settled_cqi):
+            last = self._metrics[-1]
+            if last.sim_time == result.completion_time:
+                result.settled_terms = {k: getattr(last, k) for k in (
+                    "cqi", "volume_term", "area_term", "distance_term", "hull_volume",
+                    "hull_area", "com_distance")}
+        return result, (resp.bag_path or None)
+
+    def _trace(self) -> EpisodeTrace:
+        tr = EpisodeTrace()
+        for m in sorted(self._metrics, key=lambda m: m.sim_time):
+            tr.time.append(m.sim_time)
+            tr.cqi.append(m.cqi)
+            tr.volume_term.append(m.volume_term)
+            tr.area_term.append(m.area_term)
+            tr.distance_term.append(m.distance_term)
+            tr.locked_pairs.append(m.locked_pairs)
+        return tr
+
+
+def capture_via_ros(design: Design, seed: int | None = None, noise_model: NoiseModel | None = None,
+                    config: SimConfig | None = None, record_bag: bool = True,
+                    bag_name: str | None = None, timeout: float = 900.0,
+                    bag_dir: str | Path = "bags", params: dict | None = None
+                    ) -> tuple[EpisodeResult, str | None]:
+    """One capture through a fresh node suite (nodes as processes).
+
+    Returns (result, bag path or None).  The result's ``trace`` holds the monitor's
+    CaptureMetrics series; ``steps`` (-1) and ``max_penetration`` (NaN) are not carried
+    by the messages.  Raises RosCaptureError (one line) if a node dies, the service
+    refuses the request, or the episode times out.
+    """
+    suite = RosSuite(config=config, noise_model=noise_model, bag_dir=bag_dir, params=params)
+    with suite:
+        return suite.capture(design, seed, noise_model, record_bag=record_bag,
+                             bag_name=bag_name, timeout=timeout)
