@@ -7,6 +7,7 @@ import math
 
 from ..core.design import Design, load_design
 from ..core.noise import NOISE_SOURCES, NoiseModel
+from ..errors import UserError
 
 
 def add_design_argument(p: argparse.ArgumentParser) -> None:
@@ -31,7 +32,6 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args, **overrides):
     """SimConfig from --config (if given) with ``overrides`` applied on top."""
-    from ..errors import UserError
     from ..core.config import ConfigError, SimConfig
 
     data = {}
@@ -55,13 +55,34 @@ def config_from_args(args, **overrides):
         raise ConfigError(f"config: {exc}") from None
 
 
+def add_backend_arguments(p: argparse.ArgumentParser) -> None:
+    """--workers / --scheduler: which EpisodeBackend runs the episodes."""
+    p.add_argument("--workers", type=int, default=None, metavar="K",
+                   help="local worker processes (default: all cores; 0: in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR|local",
+                   help="run on a Dask cluster at ADDR (tcp://host:8786), or 'local' for a "
+                        "local Dask cluster of --workers processes")
+
+
+def check_backend_arguments(args) -> None:
+    if args.workers is not None and args.workers < 0:
+        raise UserError(f"--workers {args.workers}: must be an integer >= 0 (0: in-process)")
+    if args.scheduler is not None and args.workers == 0:
+        raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
+
+
+def backend_from_args(args):
+    """The EpisodeBackend chosen by --workers / --scheduler."""
+    from ..montecarlo import make_backend
+
+    return make_backend(workers=args.workers, scheduler=args.scheduler)
+
+
 def design_from_args(args) -> Design:
     return load_design(args.design)
 
 
 def noise_model_from_args(args) -> NoiseModel:
-    from ..errors import UserError
-
     scales = {}
     for item in args.noise_scale:
         if "=" not in item:

@@ -15,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from .common import (add_config_argument, add_noise_arguments, config_from_args,
+from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
+                     backend_from_args, check_backend_arguments, config_from_args,
                      noise_model_from_args, print_json)
 
 NAME = "optimize"
@@ -35,11 +36,7 @@ def add_arguments(p):
                    help="Monte Carlo samples per design during optimisation (default 100)")
     p.add_argument("--validation-samples", type=int, default=1000, metavar="V",
                    help="fresh samples to validate the best design with (default 1000; 0: none)")
-    p.add_argument("--workers", type=int, default=None, metavar="W",
-                   help="local worker processes (default: all cores; 0: in this process)")
-    p.add_argument("--scheduler", default=None, metavar="ADDR|local",
-                   help="run the episodes on a Dask cluster at ADDR (tcp://host:8786), or "
-                        "'local' for a local Dask cluster of --workers processes")
+    add_backend_arguments(p)
     p.add_argument("--via", choices=("library", "ros"), default="library",
                    help="ros: run every episode through the ROS 2 suite's RunCapture service "
                         "and read its result back from the recorded MCAP bag (one at a time)")
@@ -83,10 +80,7 @@ def check_arguments(args) -> None:
                              ("--validation-seed", args.validation_seed, 0)):
         if value < low:
             raise UserError(f"{flag} {value}: must be an integer >= {low}")
-    if args.workers is not None and args.workers < 0:
-        raise UserError(f"--workers {args.workers}: must be an integer >= 0 (0: in-process)")
-    if args.scheduler is not None and args.workers == 0:
-        raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
+    check_backend_arguments(args)
     if args.via == "ros" and (args.workers is not None or args.scheduler is not None):
         raise UserError("--via ros runs the episodes through the ROS suite; it cannot be "
                         "combined with --workers or --scheduler")
@@ -201,9 +195,7 @@ def run(args) -> int:
         backend = RosBackend(bag_dir=run_dir / "bags" if args.keep_bags else None,
                              keep_bags=args.keep_bags)
     else:
-        from ..montecarlo import make_backend
-
-        backend = make_backend(workers=args.workers, scheduler=args.scheduler)
+        backend = backend_from_args(args)
     bar = OptimizeProgress(case, args.no_progress)
     t0 = time.perf_counter()
     try:

@@ -14,7 +14,8 @@ import time
 from pathlib import Path
 
 from ..core.design import REFERENCE_DESIGNS
-from .common import (add_config_argument, add_noise_arguments, config_from_args,
+from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
+                     backend_from_args, check_backend_arguments, config_from_args,
                      noise_model_from_args, print_json)
 
 NAME = "validate"
@@ -38,11 +39,7 @@ def add_run_arguments(p, default_samples: int) -> None:
                    help=f"Monte Carlo samples per design (default {default_samples})")
     p.add_argument("--seed", type=int, default=0, metavar="BASE",
                    help="base seed: sample i uses noise seed BASE*1000003+i (default 0)")
-    p.add_argument("--workers", type=int, default=None, metavar="K",
-                   help="local worker processes (default: all cores; 0: in this process)")
-    p.add_argument("--scheduler", default=None, metavar="ADDR|local",
-                   help="run on a Dask cluster at ADDR (tcp://host:8786), or 'local' for a "
-                        "local Dask cluster of --workers processes")
+    add_backend_arguments(p)
     p.add_argument("--results", default=None, metavar="FILE.jsonl",
                    help="per-sample results file to append to and resume from "
                         "(default out/montecarlo/<design>_seed<BASE>.jsonl)")
@@ -63,10 +60,7 @@ def check_run_arguments(args) -> None:
         raise UserError(f"--samples {args.samples}: must be an integer >= 1")
     if args.seed < 0:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
-    if args.workers is not None and args.workers < 0:
-        raise UserError(f"--workers {args.workers}: must be an integer >= 0 (0: in-process)")
-    if args.scheduler is not None and args.workers == 0:
-        raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
+    check_backend_arguments(args)
 
 
 def run_config(args, **extra):
@@ -76,12 +70,6 @@ def run_config(args, **extra):
     if args.horizon is not None:
         over["horizon"] = args.horizon
     return config_from_args(args, **over)
-
-
-def backend_from_args(args):
-    from ..montecarlo import make_backend
-
-    return make_backend(workers=args.workers, scheduler=args.scheduler)
 
 
 def design_label(name_or_path: str) -> str:
