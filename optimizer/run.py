@@ -174,6 +174,9 @@ def run_optimization(case: str | Case, iterations: int = 200, seed_points: int =
     })
     settings = json.loads(json.dumps(settings))
     previous = 0
+    if resume and not paths["checkpoint"].exists() and not paths["settings"].exists():
+        raise RunError(f"cannot resume: {str(run_dir)!r} holds no run ({RUN_FILES['settings']} "
+                       "missing); start it without --resume")
     if paths["checkpoint"].exists():
         if not resume:
             raise RunError(f"run directory {str(run_dir)!r} already holds a run "

@@ -140,6 +140,9 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path):
                              **{**kw, "samples": 11})
         be = SyntheticBackend()
         resumed = run_optimization("mass", backend=be, run_dir=d, resume=True, **kw)
+        with pytest.raises(RunError, match="holds no run"):
+            run_optimization("mass", backend=SyntheticBackend(), run_dir=tmp_path / "typo",
+                             resume=True, **kw)
         # nothing simulated twice: the in-flight design's finished samples were reused
         assert kill_after + len(be.tasks) == len(full_be.tasks)
         assert _strip_wall(_history(d)) == _strip_wall(_history(tmp_path / "full"))

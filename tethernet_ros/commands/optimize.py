@@ -180,9 +180,9 @@ def run(args) -> int:
             if v is not None}
     config = config_from_args(args, **over)
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(case)
-    if args.resume and not (run_dir / "checkpoint.json").exists():
-        print(f"tethernet optimize: no checkpoint in {run_dir}; starting a new run",
-              file=sys.stderr)
+    if args.resume and (run_dir / "run.json").exists() and not (run_dir / "checkpoint.json").exists():
+        print(f"tethernet optimize: {run_dir} was stopped before its first design finished; "
+              "resuming from its samples", file=sys.stderr)
     options = {}
     if args.gp_restarts is not None:
         options["n_restarts_gp"] = args.gp_restarts
