@@ -289,18 +289,12 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     w = 1.0 / mass
     w[i_tether0:i_chaser] = 0.0  # kinematic while the winch pays out
-    all_pairs = np.concatenate([grid_pairs, links])
-    all_k = np.concatenate([np.full(len(grid_pairs), k_grid), k])
-    all_active = np.concatenate([np.ones(len(grid_pairs), dtype=np.uint8), active])
-    _, stable = dyn.stable_step(all_pairs, all_k, all_active, w, nb)
-    dt = cfg.step_for(stable)
 
     ring_pairs = np.array([(ring[q], ring[(q + 1) % len(ring)]) for q in range(len(ring))], dtype=np.int64)
 
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
     prm = np.zeros(dyn.N_PRM)
-    prm[dyn.P_DT] = dt
     prm[dyn.P_CLOSE_FORCE] = cfg.closing_force_factor * design.m_c * design.L_n
     prm[dyn.P_CLOSE_THRESHOLD] = actions.closing_displacement
     prm[dyn.P_LOCK_DIST] = cfg.lock_distance
@@ -316,11 +310,11 @@ def build_scenario(design: Design, actions: Actions, world: World,
     ev[dyn.E_CLOSING_ARMED] = 1
     ev[dyn.E_CLOSING_STEP] = -1
 
-    return Scenario(
+    sc = Scenario(
         design=design, config=cfg, target=target, x=x, v=v, w=w, mass=mass, radius=radius,
         contact_mask=contact, grid_n=n, grid_rest=l0, grid_kh=grid_kh, grid_ch=grid_ch,
         grid_kv=grid_kv, grid_cv=grid_cv, links=links, link_rest=rest, link_k=k, link_c=damping,
-        link_active=active, node_links=slots, node_link_sign=signs, dt=dt, stable_step=stable, net_nodes=np.arange(n_net, dtype=np.int64),
+        link_active=active, node_links=slots, node_link_sign=signs, dt=0.0, stable_step=0.0, net_nodes=np.arange(n_net, dtype=np.int64),
         ring_pairs=ring_pairs, pair_locked=np.zeros(len(ring_pairs), dtype=np.uint8),
         pair_maxdist=np.zeros(len(ring_pairs)), pair_lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
         tether_nodes=np.arange(i_tether0, i_chaser, dtype=np.int64),
@@ -331,6 +325,12 @@ def build_scenario(design: Design, actions: Actions, world: World,
         tgt_vel=np.zeros(3), tgt_omega=np.zeros(3), tgt_inertia=target.inertia.copy(),
         cyl=target.cylinder(), verts=verts, offsets=offsets, prm=prm, ev=ev,
     )
+    # the integration step: a fraction of the stable step of every thread (grid and other)
+    pairs, _, k_all, _, active_all = sc.threads()
+    _, sc.stable_step = dyn.stable_step(pairs, k_all, active_all, w, nb)
+    sc.dt = cfg.step_for(sc.stable_step)
+    sc.prm[dyn.P_DT] = sc.dt
+    return sc
 
 
 def scenario_for(design: Design, sample: NoiseSample | None = None,

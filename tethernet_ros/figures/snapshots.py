@@ -179,7 +179,7 @@ def _draw(ax, scenario, x, pose, moment, limits):
     verts, faces = _target_mesh_world(scenario.target, pose)
     tri = P(verts)[faces]
     ax.add_collection3d(Poly3DCollection(tri, facecolor=(0.6, 0.6, 0.65, 0.25), edgecolor="none"))
-    links = np.asarray(scenario.threads()[0] if hasattr(scenario, "threads") else scenario.links)
+    links = np.asarray(scenario.threads()[0])
     net_set = set(np.asarray(scenario.net_nodes).tolist()) | set(np.asarray(scenario.corner_bodies).tolist())
     net_links = np.array([l for l in links if l[0] in net_set and l[1] in net_set])
     segs = P(x)[net_links]
