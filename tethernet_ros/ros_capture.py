@@ -154,10 +154,39 @@ class RosSuite:
                     raise RosCaptureError(f"timed out after {timeout:g} s waiting for the suite: "
                                           f"{self.missing() or 'no RunCapture service'} "
                                           f"(logs: {self.log_dir})")
+            self._wait_capture_node_ready(deadline, timeout)
         except BaseException:
             self.stop()
             raise
         return self
+
+    def _wait_capture_node_ready(self, deadline: float, timeout: float) -> None:
+        """Wait until the capture node itself sees the whole suite (its suite_ready
+        service); this client's view of the graph can be complete before the capture
+        node's is (seen on a loaded CI machine: > 10 s apart)."""
+        from std_srvs.srv import Trigger
+
+        from .nodes import common
+
+        client = self._node.create_client(Trigger, common.READY_SERVICE)
+        try:
+            message = "no suite_ready service"
+            while time.monotonic() <= deadline:
+                self.check_alive("while starting")
+                if client.wait_for_service(timeout_sec=0.1):
+                    future = client.call_async(Trigger.Request())
+                    if self.spin_until(future.done, timeout=5.0):
+                        reply = future.result()
+                        if reply.success:
+                            return
+                        message = reply.message
+                    else:
+                        client.remove_pending_request(future)
+                    time.sleep(0.2)
+            raise RosCaptureError(f"timed out after {timeout:g} s waiting for the suite: the "
+                                  f"capture node reports {message} (logs: {self.log_dir})")
+        finally:
+            self._node.destroy_client(client)
 
     def _start_client(self) -> None:
         import rclpy

@@ -1,6 +1,8 @@
 """Capture service node: the RunCapture service, and the suite's bag recorder.
 
 Service     RunCapture (``service`` parameter, default /tethernet/run_capture).
+Service     std_srvs/Trigger /tethernet/suite_ready: success when this node sees every
+            subscriber and publisher of the suite (its message says what is missing).
 Publishes   EpisodeSetup (the validated request plus this node's SimConfig parameters).
 Subscribes  every suite topic, serialized (raw CDR), and writes it to the episode's bag.
 
@@ -62,6 +64,7 @@ class Episode:
 class CaptureNode(Node):
     def __init__(self):
         from tethernet_msgs.msg import EpisodeSetup
+        from std_srvs.srv import Trigger
         from tethernet_msgs.srv import RunCapture
 
         super().__init__(NODE)
@@ -103,8 +106,17 @@ class CaptureNode(Node):
                                             daemon=True)
         self._rec_thread.start()
         self.create_service(RunCapture, common.param(self, "service"), self.on_request)
+        # readiness as this node sees the graph (DDS discovery reaches each participant at
+        # its own pace: a launcher's view of the graph is not this node's)
+        self.create_service(Trigger, common.READY_SERVICE, self.on_ready)
         self.get_logger().info(f"ready: service {common.param(self, 'service')}, bags in "
                                f"{Path(common.param(self, 'bag_dir')).resolve()}")
+
+    def on_ready(self, request, response):
+        missing = self.missing_nodes(0.0)
+        response.success = not missing
+        response.message = missing or "ready"
+        return response
 
     def _spin_recorder(self) -> None:
         try:

@@ -38,6 +38,8 @@ TOPIC_TYPES: dict[str, str] = {
 }
 
 SERVICE = "/tethernet/run_capture"
+#: std_srvs/Trigger of the capture node: success when it sees every node of the suite
+READY_SERVICE = "/tethernet/suite_ready"
 
 #: parameter defaults per node (nested names use '.'); config/tethernet.yaml mirrors them
 DEFAULTS: dict[str, dict] = {
