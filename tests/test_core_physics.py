@@ -231,6 +231,46 @@ def test_closing_force_and_lock():
         dmax = sc.pair_maxdist[0]
 
 
+def test_lock_at_zero_distance_removes_the_separating_velocity():
+    """A pair locked at zero distance (its nodes coincide) and thrown apart: the ratchet
+    keeps the nodes together and must take out their relative velocity, so no kinetic
+    energy appears.  (The projection left them on one point, whose direction is undefined;
+    the separating velocity used to be skipped there and, pushed by any force, grew each
+    step while the nodes stayed put: time-min seed 497 reached 500 m/s and diverged.)"""
+    from tethernet_ros.core import dynamics as dyn
+
+    m = 0.037
+    sc = particle_system([[0, 0, 0], [0, 0, 0]], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
+                         rest=[100.0], dt=1e-4)
+    sc.link_active[:] = 0
+    sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
+    sc.pair_locked = np.ones(1, dtype=np.uint8)
+    sc.pair_maxdist = np.zeros(1)
+    sc.pair_lock_step = np.zeros(1, dtype=np.int64)
+    sc.prm[dyn.P_CLOSE_FORCE] = 3.0
+    sc.ev[dyn.E_CLOSING_ACTIVE] = 1
+    sim = CaptureSimulation(sc)
+    sim.s.v[0] = [-5.0, 1.0, 0.5]
+    sim.s.v[1] = [5.0, -1.0, 2.5]
+    momentum = m * sim.s.v.sum(axis=0)
+    sim.advance(1)
+    rel = sim.s.v[1] - sim.s.v[0]
+    assert np.linalg.norm(rel) < 1e-9 * 10.0                # all of it: every direction separates
+    assert np.allclose(m * sim.s.v.sum(axis=0), momentum, rtol=0, atol=1e-12)
+    ke0 = 0.5 * m * (sim.s.v ** 2).sum()
+    sim.advance(2000)
+    assert np.linalg.norm(sim.s.x[1] - sim.s.x[0]) < 1e-12
+    assert 0.5 * m * (sim.s.v ** 2).sum() <= ke0 * (1 + 1e-9)
+
+
+def test_time_min_seed_497_no_longer_diverges():
+    """The 1000-sample validation's case of the bug above (diverged at t = 17.4 s)."""
+    res = run_episode(REFERENCE_DESIGNS["time-min"], NoiseModel().sample(497), SimConfig(),
+                      record_trace=False)
+    assert "diverged" not in (res.failure_reason or ""), res.failure_reason
+    assert res.completion_time == res.completion_time      # it finished (T is a number)
+
+
 def test_closing_force_magnitude_from_design():
     from tethernet_ros.core import dynamics as dyn
 

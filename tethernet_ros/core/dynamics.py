@@ -228,6 +228,7 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         net_mass += mass[net_nodes[k]]
     R = np.empty((3, 3))
     pair_f = np.zeros((max(n_pairs, 1), 3))
+    lock_sep = np.zeros((n_pairs, 3))
     acc = np.zeros((3, N))
     lock_count = np.zeros(N)
     # structure of arrays
@@ -551,7 +552,7 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
         # ---- 7. drawstring locks: one-sided distance joints (ratchet) ---------------
         if ev[E_CLOSING_ACTIVE] == 1:
             _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist,
-                           acc, lock_count)
+                           acc, lock_count, lock_sep)
 
         ev[E_STEP] += 1
         # ---- 8. events: closing trigger, tether lock, drawstring locks -----------------
@@ -593,12 +594,19 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
 
 
 @njit(cache=True, error_model='numpy')
-def _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist, corr, count):
+def _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist, corr, count,
+                   sep):
     """Hold every locked pair within its maximum distance: positions are projected along
     the pair (mass-weighted, so momentum is kept) and the separating relative velocity is
     removed.  A node in two locked pairs takes the mean of both corrections (Jacobi with
     mass splitting, order-independent); LOCK_PASSES passes per step."""
     n_pairs = ring_pairs.shape[0]
+    # each pair's separation before the projection (m; sep: (n_pairs, 3) scratch): the
+    # direction of its separating motion where the projection leaves it coincident (below)
+    for p in range(n_pairs):
+        sep[p, 0] = X[ring_pairs[p, 1]] - X[ring_pairs[p, 0]]
+        sep[p, 1] = Y[ring_pairs[p, 1]] - Y[ring_pairs[p, 0]]
+        sep[p, 2] = Z[ring_pairs[p, 1]] - Z[ring_pairs[p, 0]]
     for _ in range(LOCK_PASSES):
         any_active = False
         for p in range(n_pairs):
@@ -650,7 +658,20 @@ def _project_locks(X, Y, Z, VX, VY, VZ, w, ring_pairs, pair_locked, pair_maxdist
         dz = Z[b] - Z[a]
         d = np.sqrt(dx * dx + dy * dy + dz * dz)
         wsum = w[a] + w[b]
-        if d < 1e-14 or wsum == 0.0 or d < pair_maxdist[p] * (1.0 - 1e-9):
+        if d < 1e-14:
+            # A pair locked at (nearly) zero distance is projected onto one point, which
+            # has no direction; its separating motion had the direction of the separation
+            # before the projection.  (Skipping it left the relative velocity in place: it
+            # then grew step after step while the projection kept the nodes together, a
+            # pure gain of kinetic energy that ended 3 of 1000 time-min samples at
+            # max_speed.)
+            dx = sep[p, 0]
+            dy = sep[p, 1]
+            dz = sep[p, 2]
+            d = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if d <= pair_maxdist[p] or d < 1e-14:
+                continue
+        if wsum == 0.0 or d < pair_maxdist[p] * (1.0 - 1e-9):
             continue
         nx = dx / d
         ny = dy / d
