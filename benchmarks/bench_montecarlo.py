@@ -3,12 +3,12 @@ workers (scaling efficiency), and on a local Dask cluster of 2 workers (its over
 against the pool).
 
     .venv/bin/python benchmarks/bench_montecarlo.py [--samples N] [--design NAME]
-        [--settle-time S] [--workers K] [--skip-dask] [--skip-serial]
+        [--settle-time S] [--workers K] [--rounds R] [--skip-dask] [--skip-serial]
 
 Every backend runs the same samples (same seeds, so the same work).  Worker start-up
 (spawn, imports, numba cache load) is timed apart and excluded from the throughput: the
 workers are started and warmed first.  Efficiency = eps(K) / (K * eps(1)); Dask overhead =
-t(dask, K) / t(pool, K) - 1.  "workers busy" = sum of episode wall times / (K * run wall):
+t(dask, K) / t(pool, K) - 1, from --rounds interleaved pool/Dask pairs (median and range).  "workers busy" = sum of episode wall times / (K * run wall):
 the share of the run the workers spent simulating (100 % = no scheduling loss), which
 other load on the machine does not change; episode CPU < episode wall shows that load.
 Numbers only, no asserts.
@@ -41,6 +41,8 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2, help="pool size for the scaling run (default 2)")
     ap.add_argument("--seed", type=int, default=7, help="base seed of the samples (default 7)")
     ap.add_argument("--skip-dask", action="store_true")
+    ap.add_argument("--rounds", type=int, default=3,
+                    help="interleaved pool/Dask rounds for the overhead (default 3)")
     ap.add_argument("--skip-serial", action="store_true", help="skip the in-process baseline")
     args = ap.parse_args(argv)
 
@@ -86,14 +88,33 @@ def main(argv=None) -> int:
               f"(speed-up {epsk / eps1:.2f}x)")
 
     if not args.skip_dask:
+        # The pool and the Dask cluster stay up side by side and take turns on the same
+        # samples, --rounds times: this VM's speed drifts by 10-30 % over a minute (same
+        # samples, same backend), so an overhead is only read from interleaved pairs.
         t0 = time.perf_counter()
-        with mc.DaskBackend("local", k).start() as be:
-            startup = time.perf_counter() - t0
-            wall, r = timed_run(be, design, n, config, args.seed)
-        report(f"dask local cluster, {k}", wall, r, startup, k)
-        same = [s.outcome() for s in r.samples] == [s.outcome() for s in res[k][1].samples]
-        print(f"  dask overhead vs process pool ({k} workers): {(wall / res[k][0] - 1) * 100:+5.1f} %  "
-              f"(results identical: {same})")
+        dask_be = mc.DaskBackend("local", k).start()
+        startup = time.perf_counter() - t0
+        pool_be = mc.ProcessPoolBackend(k).start()
+        ratios = []
+        try:
+            for rnd in range(args.rounds):
+                pw, pr = timed_run(pool_be, design, n, config, args.seed)
+                report(f"pool, {k} (round {rnd + 1})", pw, pr, 0.0, k)
+                dw, dr = timed_run(dask_be, design, n, config, args.seed)
+                report(f"dask local, {k} (round {rnd + 1})", dw, dr, startup if rnd == 0 else 0.0, k)
+                same = [s.outcome() for s in dr.samples] == [s.outcome() for s in pr.samples]
+                ratios.append(dw / pw - 1)
+                print(f"  round {rnd + 1}: dask overhead {ratios[-1] * 100:+5.1f} %  "
+                      f"(results identical: {same})", flush=True)
+        finally:
+            pool_be.close()
+            dask_be.close()
+        ratios.sort()
+        med = ratios[len(ratios) // 2] if len(ratios) % 2 else \
+            0.5 * (ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
+        print(f"  dask overhead vs process pool ({k} workers, {len(ratios)} interleaved rounds): "
+              f"median {med * 100:+5.1f} %, range {ratios[0] * 100:+5.1f} % .. "
+              f"{ratios[-1] * 100:+5.1f} %")
     return 0
 
 
