@@ -194,21 +194,28 @@ def test_no_body_sinks_into_target_under_noise():
         assert res.max_penetration < 0.05
 
 
-def test_closing_force_and_lock():
-    """Two free nodes of a drawstring pair: constant F_c pulls them together; below 1 m they
-    lock and never separate again."""
+def _drawstring_pair(x1, m, close_force, locked):
+    """Two free nodes of mass m (kg), at the origin and x1 (m), forming one drawstring pair
+    with the closing force (N) on; locked at zero distance or not yet locked."""
     from tethernet_ros.core import dynamics as dyn
 
-    m, F = 0.05, 2 * 2.0 * 20.0 / 25
-    sc = particle_system([[0, 0, 0], [3.0, 0, 0]], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
+    sc = particle_system([[0, 0, 0], x1], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
                          rest=[100.0], dt=1e-4)
     sc.link_active[:] = 0
     sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
-    sc.pair_locked = np.zeros(1, dtype=np.uint8)
+    sc.pair_locked = np.full(1, 1 if locked else 0, dtype=np.uint8)
     sc.pair_maxdist = np.zeros(1)
-    sc.pair_lock_step = np.full(1, -1, dtype=np.int64)
-    sc.prm[dyn.P_CLOSE_FORCE] = F
+    sc.pair_lock_step = np.full(1, 0 if locked else -1, dtype=np.int64)
+    sc.prm[dyn.P_CLOSE_FORCE] = close_force
     sc.ev[dyn.E_CLOSING_ACTIVE] = 1
+    return sc
+
+
+def test_closing_force_and_lock():
+    """Two free nodes of a drawstring pair: constant F_c pulls them together; below 1 m they
+    lock and never separate again."""
+    m, F = 0.05, 2 * 2.0 * 20.0 / 25
+    sc = _drawstring_pair([3.0, 0, 0], m, F, locked=False)
     sim = CaptureSimulation(sc)
     sim.advance(1000)
     t = sim.time
@@ -237,18 +244,8 @@ def test_lock_at_zero_distance_removes_the_separating_velocity():
     energy appears.  (The projection left them on one point, whose direction is undefined;
     the separating velocity used to be skipped there and, pushed by any force, grew each
     step while the nodes stayed put: time-min seed 497 reached 500 m/s and diverged.)"""
-    from tethernet_ros.core import dynamics as dyn
-
     m = 0.037
-    sc = particle_system([[0, 0, 0], [0, 0, 0]], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
-                         rest=[100.0], dt=1e-4)
-    sc.link_active[:] = 0
-    sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
-    sc.pair_locked = np.ones(1, dtype=np.uint8)
-    sc.pair_maxdist = np.zeros(1)
-    sc.pair_lock_step = np.zeros(1, dtype=np.int64)
-    sc.prm[dyn.P_CLOSE_FORCE] = 3.0
-    sc.ev[dyn.E_CLOSING_ACTIVE] = 1
+    sc = _drawstring_pair([0, 0, 0], m, 3.0, locked=True)
     sim = CaptureSimulation(sc)
     sim.s.v[0] = [-5.0, 1.0, 0.5]
     sim.s.v[1] = [5.0, -1.0, 2.5]
