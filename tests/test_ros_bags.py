@@ -149,7 +149,7 @@ def _episode_states(design, sample, cfg, every):
     scen = build_scenario(design, actions_for(design, sample), world_for(design, sample), cfg)
     msgs = []
     sim = PublishingSimulation(scen, every, lambda s: msgs.append(
-        serialize_message(convert.net_state_msg(s))), lambda: False)
+        serialize_message(convert.net_state_msg(convert.state_arrays(s)))), lambda: False)
     sim.publish()
     result = run_simulation(sim, record_trace=False)
     sim.publish()

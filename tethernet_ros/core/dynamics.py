@@ -177,7 +177,7 @@ def stable_step(links, link_k, link_active, w, n_bodies):
     return omega, 2.0 / omega
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, nogil=True, error_model='numpy')
 def advance(n_steps, x, v, w, mass, radius, contact_mask,
             grid_n, grid_rest, grid_kh, grid_ch, grid_kv, grid_cv,
             links, link_rest, link_k, link_c, link_active, node_links, node_link_sign,
@@ -209,6 +209,8 @@ def advance(n_steps, x, v, w, mass, radius, contact_mask,
 
     The state is copied to structure-of-arrays form for the step loop (so the grid loops
     vectorise) and back at the end; the result does not depend on how steps are chunked.
+    The kernel releases the GIL: other Python threads of the process (the ROS node's
+    publisher, a Dask worker's event loop) run beside it.
     """
     dt = prm[P_DT]
     N = x.shape[0]

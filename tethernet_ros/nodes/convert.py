@@ -237,7 +237,8 @@ def actions_world_from_msgs(launch, closing) -> tuple[Actions, World]:
 # --- states -----------------------------------------------------------------------------
 @dataclass
 class StateArrays:
-    """One NetState as arrays (SI; quaternion w, x, y, z)."""
+    """One NetState as arrays (SI; quaternion w, x, y, z); also the snapshot of a running
+    simulation that the sim node hands to its publishing thread."""
 
     step: int
     sim_time: float
@@ -250,37 +251,54 @@ class StateArrays:
     closing_active: bool
     closing_start_time: float
     locked: np.ndarray          # (12,) bool
+    num_net_nodes: int = 0
+    num_corner_masses: int = 0
+
+
+def state_arrays(sim) -> StateArrays:
+    """Snapshot (copies) of a CaptureSimulation's current state."""
+    s = sim.s
+    ct = sim.closing_time
+    return StateArrays(
+        step=sim.step, sim_time=sim.time,
+        positions=np.array(s.x, dtype=float), velocities=np.array(s.v, dtype=float),
+        target_position=np.array(s.tgt_pos, dtype=float),
+        target_quaternion=np.array(s.tgt_quat, dtype=float),
+        target_velocity=np.array(s.tgt_vel, dtype=float),
+        target_omega=np.array(s.tgt_omega, dtype=float),
+        closing_active=sim.closing_active,
+        closing_start_time=-1.0 if ct is None else float(ct),
+        locked=np.array(s.pair_locked, dtype=bool),
+        num_net_nodes=len(s.net_nodes), num_corner_masses=len(s.corner_bodies))
 
 
 def _vec(v) -> np.ndarray:
     return np.array([v.x, v.y, v.z], dtype=float)
 
 
-def net_state_msg(sim, frame_id: str = "chaser"):
-    """NetState of a CaptureSimulation's current state (header stamp: sim time)."""
+def net_state_msg(state: StateArrays, frame_id: str = "chaser"):
+    """NetState of a state snapshot (:func:`state_arrays`; header stamp: sim time)."""
     from tethernet_msgs.msg import NetState
 
-    s = sim.s
     m = NetState()
-    stamp(m.header.stamp, sim.time)
+    stamp(m.header.stamp, state.sim_time)
     m.header.frame_id = frame_id
-    m.sim_time = sim.time
-    m.step = sim.step
-    m.positions = array.array("d", np.ascontiguousarray(s.x).tobytes())
-    m.velocities = array.array("d", np.ascontiguousarray(s.v).tobytes())
-    m.num_net_nodes = len(s.net_nodes)
-    m.num_corner_masses = len(s.corner_bodies)
-    m.num_tether_nodes = s.n_bodies - len(s.net_nodes) - len(s.corner_bodies)
+    m.sim_time = state.sim_time
+    m.step = state.step
+    m.positions = array.array("d", np.ascontiguousarray(state.positions).tobytes())
+    m.velocities = array.array("d", np.ascontiguousarray(state.velocities).tobytes())
+    m.num_net_nodes = state.num_net_nodes
+    m.num_corner_masses = state.num_corner_masses
+    m.num_tether_nodes = len(state.positions) - state.num_net_nodes - state.num_corner_masses
     p, q = m.target_pose.position, m.target_pose.orientation
-    p.x, p.y, p.z = (float(v) for v in s.tgt_pos)
-    q.w, q.x, q.y, q.z = (float(v) for v in s.tgt_quat)
+    p.x, p.y, p.z = (float(v) for v in state.target_position)
+    q.w, q.x, q.y, q.z = (float(v) for v in state.target_quaternion)
     lin, ang = m.target_twist.linear, m.target_twist.angular
-    lin.x, lin.y, lin.z = (float(v) for v in s.tgt_vel)
-    ang.x, ang.y, ang.z = (float(v) for v in s.tgt_omega)
-    m.closing_active = sim.closing_active
-    ct = sim.closing_time
-    m.closing_start_time = -1.0 if ct is None else float(ct)
-    m.locked = [bool(v) for v in s.pair_locked]
+    lin.x, lin.y, lin.z = (float(v) for v in state.target_velocity)
+    ang.x, ang.y, ang.z = (float(v) for v in state.target_omega)
+    m.closing_active = bool(state.closing_active)
+    m.closing_start_time = float(state.closing_start_time)
+    m.locked = [bool(v) for v in state.locked]
     return m
 
 
@@ -295,19 +313,20 @@ def state_from_msg(m) -> StateArrays:
         target_quaternion=np.array([q.w, q.x, q.y, q.z], dtype=float),
         target_velocity=_vec(m.target_twist.linear), target_omega=_vec(m.target_twist.angular),
         closing_active=bool(m.closing_active), closing_start_time=float(m.closing_start_time),
-        locked=np.array([bool(v) for v in m.locked], dtype=bool))
+        locked=np.array([bool(v) for v in m.locked], dtype=bool),
+        num_net_nodes=int(m.num_net_nodes), num_corner_masses=int(m.num_corner_masses))
 
 
-def target_pose_msg(sim, frame_id: str = "chaser"):
+def target_pose_msg(state: StateArrays, frame_id: str = "chaser"):
     from geometry_msgs.msg import PoseStamped
 
-    s = sim.s
     m = PoseStamped()
-    stamp(m.header.stamp, sim.time)
+    stamp(m.header.stamp, state.sim_time)
     m.header.frame_id = frame_id
-    m.pose.position.x, m.pose.position.y, m.pose.position.z = (float(v) for v in s.tgt_pos)
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = \
+        (float(v) for v in state.target_position)
     o = m.pose.orientation
-    o.w, o.x, o.y, o.z = (float(v) for v in s.tgt_quat)
+    o.w, o.x, o.y, o.z = (float(v) for v in state.target_quaternion)
     return m
 
 
@@ -440,17 +459,17 @@ class MarkerBuilder:
 
         return [Point(x=a, y=b, z=c) for a, b, c in xyz.tolist()]
 
-    def build(self, sim):
+    def build(self, state: StateArrays):
+        """MarkerArray of a state snapshot (:func:`state_arrays`)."""
         from std_msgs.msg import ColorRGBA
         from visualization_msgs.msg import Marker, MarkerArray
 
-        s = sim.s
-        x = s.x
+        x = state.positions
         out = MarkerArray()
 
         def marker(ns, mid, mtype, rgba, scale):
             mk = Marker()
-            stamp(mk.header.stamp, sim.time)
+            stamp(mk.header.stamp, state.sim_time)
             mk.header.frame_id = self.frame_id
             mk.ns, mk.id, mk.type, mk.action = ns, mid, mtype, Marker.ADD
             mk.pose.orientation.w = 1.0
@@ -469,16 +488,16 @@ class MarkerBuilder:
         mk = marker("closing_ring", 3, Marker.LINE_LIST, (1.0, 0.2, 0.2, 1.0), (0.08, 0.0, 0.0))
         mk.points = self._points(x[self.ring_pairs].reshape(-1, 3))
         green, red = ColorRGBA(r=0.1, g=0.9, b=0.1, a=1.0), ColorRGBA(r=1.0, g=0.2, b=0.2, a=1.0)
-        mk.colors = [green if lk else red for lk in s.pair_locked for _ in (0, 1)]
+        mk.colors = [green if lk else red for lk in state.locked for _ in (0, 1)]
         marker("corner_masses", 4, Marker.SPHERE_LIST, (0.2, 0.4, 1.0, 1.0), (0.3, 0.3, 0.3)).points = \
             self._points(x[self.corners])
         marker("main_tether", 5, Marker.LINE_STRIP, (0.8, 0.8, 0.8, 1.0), (0.03, 0.0, 0.0)).points = \
             self._points(x[self.tether_chain])
         mk = marker("target", 6, Marker.CYLINDER, (0.6, 0.6, 0.65, 0.8), self.target_scale)
         p, o = mk.pose.position, mk.pose.orientation
-        p.x, p.y, p.z = (float(v) for v in s.tgt_pos)
+        p.x, p.y, p.z = (float(v) for v in state.target_position)
         # the cylinder marker's axis is its local z; the stage's long axis is body x
-        o.w, o.x, o.y, o.z = _quat_mul(s.tgt_quat, (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
+        o.w, o.x, o.y, o.z = _quat_mul(state.target_quaternion, (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
         mk = marker("chaser", 7, Marker.CUBE, (0.3, 0.3, 0.3, 1.0), (self.chaser_side,) * 3)
         # the winch sits at the launch point on the cube's +z face
         cx, cy, cz = (float(v) for v in x[self.winch])
