@@ -296,7 +296,7 @@ class RosSuite:
         """Spin the client until ``predicate()`` is true (or timeout s); returns it."""
         deadline = time.monotonic() + timeout
         while not predicate() and time.monotonic() < deadline:
-            self._executor.spin_once(timeout_sec=0.05)
+            self._executor.spin_once(timeout_sec=0.01)
         return bool(predicate())
 
     @property
@@ -322,10 +322,13 @@ class RosSuite:
                 self._client.remove_pending_request(future)
                 raise RosCaptureError(f"timed out after {timeout:g} s waiting for the RunCapture "
                                       f"response (logs: {self.log_dir})")
-        # metrics published just before the response may still be queued here
-        for _ in range(5):
-            self._executor.spin_once(timeout_sec=0.01)
-        return future.result()
+        resp = future.result()
+        # the last state's metrics may still be queued: wait (1 s at most) until they are in
+        if resp.accepted and not resp.error:
+            final = resp.result.header.stamp.sec + 1e-9 * resp.result.header.stamp.nanosec
+            self.spin_until(lambda: bool(self._metrics) and self._metrics[-1].sim_time >= final - 1e-6,
+                            timeout=1.0)
+        return resp
 
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,

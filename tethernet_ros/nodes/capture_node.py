@@ -15,6 +15,9 @@ One request = one episode:
      monitor's verdict have arrived; a simulation that stops publishing states for
      ``stall_timeout`` s (or never starts within ``start_timeout`` s) aborts the episode
      with a one-line error, and the bag stays marked incomplete;
+     The recording is complete when every stamped topic heard during the episode (states,
+     metrics, markers, pose, clock) has reached the stamp of the simulation's result,
+     which is its last state's: no topic waits on a timer;
   4. close the bag (metadata.yaml, rename to ``<bag_dir>/<name>``), check that the
      monitor's verdict equals the simulation's result exactly, and respond with the
      result and the bag path.
@@ -24,6 +27,7 @@ from __future__ import annotations
 import importlib
 import re
 import secrets
+import struct
 import threading
 import time
 from dataclasses import dataclass, field
@@ -42,6 +46,25 @@ NODE = "capture_node"
 BAG_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_.\-]{0,199}")
 
 
+#: recorded topics whose messages carry the simulated time of a state (header stamp)
+STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")
+
+
+def cdr_stamp(key: str, data: bytes) -> tuple[int, int] | None:
+    """(sec, nanosec) stamp of a serialized (CDR) message of a STAMPED topic, read in
+    place: the header (or, for /clock, the time) is the first field; a MarkerArray's is
+    its first marker's (None when it has none)."""
+    order = "<" if data[1] == 1 else ">"         # encapsulation id: CDR_LE 0x0001, CDR_BE 0x0000
+    offset = 4
+    if key == "markers":
+        (count,) = struct.unpack_from(order + "I", data, offset)
+        if count == 0:
+            return None
+        offset += 4
+    sec, nsec = struct.unpack_from(order + "iI", data, offset)
+    return sec, nsec
+
+
 def msg_class(type_name: str):
     pkg, _, name = type_name.split("/")
     return getattr(importlib.import_module(f"{pkg}.msg"), name)
@@ -58,6 +81,7 @@ class Episode:
     last_message: float = 0.0
     result: object = None
     verdict: object = None
+    last_stamp: dict = field(default_factory=dict)   # STAMPED key -> (sec, nanosec)
     event: threading.Event = field(default_factory=threading.Event)
 
 
@@ -150,6 +174,10 @@ class CaptureNode(Node):
         now = time.monotonic()
         with self._lock:
             ep.last_message = now
+            if key in STAMPED:
+                st = cdr_stamp(key, data)
+                if st is not None:
+                    ep.last_stamp[key] = st
             if key == "net_state":
                 ep.n_states += 1
                 ep.last_state = now
@@ -256,16 +284,26 @@ class CaptureNode(Node):
                         f"{stall_to:g} s after {ep.n_states} states (sim_node died or hung)")
             if now - ep.started > total_to:
                 return f"timed out: the episode took longer than episode_timeout = {total_to:g} s"
-        # late messages (markers, metrics of the last state) may still be on their way
+        # the last state's markers, pose, clock and metrics may still be on their way: wait
+        # until every stamped topic heard in this episode has reached the result's stamp
+        final = (ep.result.header.stamp.sec, ep.result.header.stamp.nanosec)
         drain = float(common.param(self, "drain_time"))
         deadline = time.monotonic() + max(10 * drain, 2.0)
-        while time.monotonic() < deadline:
+        while True:
             with self._lock:
-                quiet = time.monotonic() - ep.last_message > drain
+                behind = sorted(k for k, st in ep.last_stamp.items() if st < final)
+                behind += [k for k in ("net_state", "metrics") if k not in ep.last_stamp]
+                quiet = time.monotonic() - ep.last_message >= drain
                 settled = ep.n_metrics >= ep.n_states
-            if quiet and settled:
+            if not behind and settled and quiet:
                 break
-            time.sleep(0.02)
+            if time.monotonic() > deadline:
+                self.get_logger().warning(
+                    f"episode {ep.episode_id!r}: {', '.join(behind) or 'metrics'} did not reach "
+                    f"the final state (t = {final[0] + 1e-9 * final[1]:.3f} s) within "
+                    f"{max(10 * drain, 2.0):g} s; the bag holds what arrived")
+                break
+            time.sleep(0.002)
         return ""
 
     def missing_nodes(self, timeout: float) -> str:

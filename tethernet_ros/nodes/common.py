@@ -79,7 +79,8 @@ DEFAULTS: dict[str, dict] = {
         "stall_timeout": 15.0,       # s (wall) without a new state -> the episode is aborted
         "episode_timeout": 3600.0,   # s (wall) for a whole episode
         "ready_timeout": 30.0,       # s (wall) to wait for the other nodes before an episode
-        "drain_time": 0.1,           # s (wall) to collect late messages after the verdict
+        "drain_time": 0.0,           # s (wall) of extra quiet time before closing a bag
+                                     # (completeness is checked by stamps, not by waiting)
         # topics recorded in bags (keys of TOPICS; ALWAYS_RECORDED are added); /clock and
         # the target pose are left out by default: the states carry both
         "record_topics": ["setup", "launch_command", "closing_command", "net_state", "markers",
