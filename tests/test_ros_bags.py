@@ -243,3 +243,33 @@ def test_launch_file_and_console_scripts():
     for node in common.DEFAULTS:
         assert f'"{node}"' in launch
         assert f"{node} = tethernet_ros.nodes.{node}:main" in setup
+
+
+def test_cdr_stamp_reads_the_header_stamp_of_every_stamped_topic():
+    """The capture node decides that a bag is complete from stamps read in place from the
+    serialized messages; they must be the stamps rclpy serialized, for every type, and a
+    MarkerArray without markers has none."""
+    from tethernet_ros.nodes.capture_node import STAMPED, cdr_stamp, msg_class
+
+    sim_time = 23.697514995715512
+    sec, nsec = convert.split_time(sim_time)
+    assert nsec > 0
+    for key in STAMPED:
+        cls = msg_class(common.TOPIC_TYPES[key])
+        m = cls()
+        if key == "clock":
+            convert.stamp(m.clock, sim_time)
+        elif key == "markers":
+            from visualization_msgs.msg import Marker
+
+            for i in range(2):
+                mk = Marker()
+                convert.stamp(mk.header.stamp, sim_time)
+                mk.header.frame_id = "chaser"
+                m.markers.append(mk)
+        else:
+            convert.stamp(m.header.stamp, sim_time)
+            m.header.frame_id = "chaser"          # a string after the stamp: must not matter
+        assert cdr_stamp(key, serialize_message(m)) == (sec, nsec), key
+    empty = msg_class(common.TOPIC_TYPES["markers"])()
+    assert cdr_stamp("markers", serialize_message(empty)) is None
