@@ -31,7 +31,7 @@ def _zero_crossings(sim, n_steps):
     xs = np.empty(n_steps)
     for s in range(n_steps):
         sim.advance(1)
-        xs[s] = sim.s.x[1, 0]
+        xs[s] = sim.s.bodies.x[1, 0]
     t = (np.arange(n_steps) + 1) * sim.dt
     idx = np.flatnonzero((xs[:-1] > 0) & (xs[1:] <= 0))
     # linear interpolation of the downward crossings
@@ -82,14 +82,14 @@ def test_threads_never_push():
     sim = CaptureSimulation(particle_system([[0, 0, 0], [1.0, 0, 0]], [[0.3, 0, 0], [-0.3, 0, 0]],
                                             [0.01, 0.01], [[0, 1]], k, c, rest=[1.2], dt=1e-4))
     sim.advance(100)
-    assert np.allclose(sim.s.v, [[0.3, 0, 0], [-0.3, 0, 0]], rtol=0, atol=1e-12)
+    assert np.allclose(sim.s.bodies.v, [[0.3, 0, 0], [-0.3, 0, 0]], rtol=0, atol=1e-12)
     # stretched but closing so fast that k*C + c*dC/dt < 0: the damper may not push
     sim = CaptureSimulation(particle_system([[0, 0, 0], [1.0 + 1e-6, 0, 0]],
                                             [[5.0, 0, 0], [-5.0, 0, 0]], [0.01, 0.01], [[0, 1]],
                                             k, 1e4, rest=[1.0], dt=1e-4))
     sim.advance(1)
-    assert sim.s.v[0, 0] == pytest.approx(5.0, abs=1e-12)
-    assert sim.s.v[1, 0] == pytest.approx(-5.0, abs=1e-12)
+    assert sim.s.bodies.v[0, 0] == pytest.approx(5.0, abs=1e-12)
+    assert sim.s.bodies.v[1, 0] == pytest.approx(-5.0, abs=1e-12)
 
 
 def _far_scenario(name, distance=1e4, config=None):
@@ -100,12 +100,12 @@ def _far_scenario(name, distance=1e4, config=None):
 def test_momentum_conserved_in_free_flight():
     sim = CaptureSimulation(_far_scenario("time-min"))
     p0 = sim.linear_momentum()
-    scale = np.abs(sim.s.mass[:, None] * sim.s.v).sum()
+    scale = np.abs(sim.s.bodies.mass[:, None] * sim.s.bodies.v).sum()
     for _ in range(6):
         sim.advance(500)
         assert np.abs(sim.linear_momentum() - p0).max() < 1e-11 * scale
     # the threads did work: the corner masses were slowed by the net
-    assert np.linalg.norm(sim.s.v[sim.s.corner_bodies[0]]) < 0.99 * np.linalg.norm(REFERENCE_DESIGNS["time-min"].V_e)
+    assert np.linalg.norm(sim.s.bodies.v[sim.s.corner_bodies[0]]) < 0.99 * np.linalg.norm(REFERENCE_DESIGNS["time-min"].V_e)
 
 
 def test_momentum_conserved_through_contact_with_target():
@@ -113,13 +113,13 @@ def test_momentum_conserved_through_contact_with_target():
     winch locks and the paid-out tether joins the dynamics)."""
     sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, SimConfig()))
     p0 = sim.linear_momentum()
-    scale = np.abs(sim.s.mass[:, None] * sim.s.v).sum()
+    scale = np.abs(sim.s.bodies.mass[:, None] * sim.s.bodies.v).sum()
     while not sim.closing_active:
         sim.advance(10)
         if not sim.closing_active:
             assert np.abs(sim.linear_momentum() - p0).max() < 1e-10 * scale
-    assert sim.contact_count[0] > 100
-    assert np.linalg.norm(sim.s.tgt_vel) > 0         # the target was pushed
+    assert sim.contact_count > 100
+    assert np.linalg.norm(sim.s.target_body.vel) > 0         # the target was pushed
 
 
 def _deployment_energy(name, config, seconds=3.0, every=0.01):
@@ -172,12 +172,12 @@ def test_symmetric_launch_stays_mirror_symmetric():
     mx, my = _mirror_maps()
     while sim.time < 4.5:
         sim.advance(2000)
-        x = sim.s.x[:289]
+        x = sim.s.bodies.x[:289]
         assert np.abs(x[mx, 0] + x[:, 0]).max() < 1e-12
         assert np.abs(x[mx, 1:] - x[:, 1:]).max() < 1e-12
         assert np.abs(x[my, 1] + x[:, 1]).max() < 1e-12
         assert np.abs(x[my][:, [0, 2]] - x[:, [0, 2]]).max() < 1e-12
-    assert sim.closing_active and sim.contact_count[0] > 0
+    assert sim.closing_active and sim.contact_count > 0
 
 
 @pytest.mark.parametrize("name", sorted(REFERENCE_DESIGNS))
@@ -197,17 +197,16 @@ def test_no_body_sinks_into_target_under_noise():
 def _drawstring_pair(x1, m, close_force, locked):
     """Two free nodes of mass m (kg), at the origin and x1 (m), forming one drawstring pair
     with the closing force (N) on; locked at zero distance or not yet locked."""
-    from tethernet_ros.core import dynamics as dyn
+    from tethernet_ros.core import kernel as kn
 
     sc = particle_system([[0, 0, 0], x1], np.zeros((2, 3)), [m, m], [[0, 1]], 1.0, 0.0,
                          rest=[100.0], dt=1e-4)
-    sc.link_active[:] = 0
-    sc.ring_pairs = np.array([[0, 1]], dtype=np.int64)
-    sc.pair_locked = np.full(1, 1 if locked else 0, dtype=np.uint8)
-    sc.pair_maxdist = np.zeros(1)
-    sc.pair_lock_step = np.full(1, 0 if locked else -1, dtype=np.int64)
-    sc.prm[dyn.P_CLOSE_FORCE] = close_force
-    sc.ev[dyn.E_CLOSING_ACTIVE] = 1
+    sc.links.active[:] = 0
+    sc.drawstring = sc.drawstring._replace(
+        pairs=np.array([[0, 1]], dtype=np.int64), locked=np.full(1, 1 if locked else 0, dtype=np.uint8),
+        maxdist=np.zeros(1), lock_step=np.full(1, 0 if locked else -1, dtype=np.int64))
+    sc.set_params(close_force=close_force)
+    sc.events[kn.E_CLOSING_ACTIVE] = 1
     return sc
 
 
@@ -220,22 +219,22 @@ def test_closing_force_and_lock():
     sim.advance(1000)
     t = sim.time
     # x(t) = F/m t^2 / 2 for each node (symplectic Euler: exact to O(dt))
-    assert sim.s.x[0, 0] == pytest.approx(0.5 * F / m * t * t, rel=0.01)
-    assert sim.s.v[0, 0] == pytest.approx(F / m * t, rel=1e-9)
-    while not sc.pair_locked[0]:
-        gap = sim.s.x[1, 0] - sim.s.x[0, 0]
+    assert sim.s.bodies.x[0, 0] == pytest.approx(0.5 * F / m * t * t, rel=0.01)
+    assert sim.s.bodies.v[0, 0] == pytest.approx(F / m * t, rel=1e-9)
+    while not sc.drawstring.locked[0]:
+        gap = sim.s.bodies.x[1, 0] - sim.s.bodies.x[0, 0]
         sim.advance(1)
-    assert gap >= 1.0 > sim.s.x[1, 0] - sim.s.x[0, 0]
+    assert gap >= 1.0 > sim.s.bodies.x[1, 0] - sim.s.bodies.x[0, 0]
     # throw them apart: the lock holds (distance never grows) for the rest of the episode
-    sim.s.v[0] = [-20.0, 3.0, 0.0]
-    sim.s.v[1] = [20.0, -1.0, 2.0]
-    dmax = sc.pair_maxdist[0]
+    sim.s.bodies.v[0] = [-20.0, 3.0, 0.0]
+    sim.s.bodies.v[1] = [20.0, -1.0, 2.0]
+    dmax = sc.drawstring.maxdist[0]
     for _ in range(200):
         sim.advance(50)
-        d = np.linalg.norm(sim.s.x[1] - sim.s.x[0])
+        d = np.linalg.norm(sim.s.bodies.x[1] - sim.s.bodies.x[0])
         assert d <= dmax + 1e-9
-        assert sc.pair_locked[0] == 1
-        dmax = sc.pair_maxdist[0]
+        assert sc.drawstring.locked[0] == 1
+        dmax = sc.drawstring.maxdist[0]
 
 
 def test_lock_at_zero_distance_removes_the_separating_velocity():
@@ -247,17 +246,17 @@ def test_lock_at_zero_distance_removes_the_separating_velocity():
     m = 0.037
     sc = _drawstring_pair([0, 0, 0], m, 3.0, locked=True)
     sim = CaptureSimulation(sc)
-    sim.s.v[0] = [-5.0, 1.0, 0.5]
-    sim.s.v[1] = [5.0, -1.0, 2.5]
-    momentum = m * sim.s.v.sum(axis=0)
+    sim.s.bodies.v[0] = [-5.0, 1.0, 0.5]
+    sim.s.bodies.v[1] = [5.0, -1.0, 2.5]
+    momentum = m * sim.s.bodies.v.sum(axis=0)
     sim.advance(1)
-    rel = sim.s.v[1] - sim.s.v[0]
+    rel = sim.s.bodies.v[1] - sim.s.bodies.v[0]
     assert np.linalg.norm(rel) < 1e-9 * 10.0                # all of it: every direction separates
-    assert np.allclose(m * sim.s.v.sum(axis=0), momentum, rtol=0, atol=1e-12)
-    ke0 = 0.5 * m * (sim.s.v ** 2).sum()
+    assert np.allclose(m * sim.s.bodies.v.sum(axis=0), momentum, rtol=0, atol=1e-12)
+    ke0 = 0.5 * m * (sim.s.bodies.v ** 2).sum()
     sim.advance(2000)
-    assert np.linalg.norm(sim.s.x[1] - sim.s.x[0]) < 1e-12
-    assert 0.5 * m * (sim.s.v ** 2).sum() <= ke0 * (1 + 1e-9)
+    assert np.linalg.norm(sim.s.bodies.x[1] - sim.s.bodies.x[0]) < 1e-12
+    assert 0.5 * m * (sim.s.bodies.v ** 2).sum() <= ke0 * (1 + 1e-9)
 
 
 def test_time_min_seed_497_no_longer_diverges():
@@ -269,13 +268,11 @@ def test_time_min_seed_497_no_longer_diverges():
 
 
 def test_closing_force_magnitude_from_design():
-    from tethernet_ros.core import dynamics as dyn
-
     d = REFERENCE_DESIGNS["time-min"]
     sc = scenario_for(d)
-    assert sc.prm[dyn.P_CLOSE_FORCE] == pytest.approx(2 * d.m_c * d.L_n / 25)
-    assert sc.prm[dyn.P_LOCK_DIST] == 1.0
-    assert len(sc.ring_pairs) == 12
+    assert sc.params.close_force == pytest.approx(2 * d.m_c * d.L_n / 25)
+    assert sc.params.lock_dist == 1.0
+    assert len(sc.drawstring.pairs) == 12
 
 
 def test_closing_triggers_at_displacement():

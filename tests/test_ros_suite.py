@@ -159,7 +159,7 @@ def test_bag_with_rosbags(captured, reference):
     assert last.closing_active and sum(last.locked) == reference.locked_pairs
     # the core's CQI of the recorded final state is the settled CQI
     tgt = scen.target
-    terms = capture_quality_index(pos[:289], scen.mass[:289],
+    terms = capture_quality_index(pos[:289], scen.bodies.mass[:289],
                                   [last.target_pose.position.x, last.target_pose.position.y,
                                    last.target_pose.position.z],
                                   tgt.volume, tgt.area, tgt.min_surface_distance)

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from .core import dynamics as dyn
+from .core import kernel as kn
 from .core.config import SimConfig
 from .core.design import Design
 from .core.episode import CaptureSimulation, EpisodeResult, run_simulation
@@ -45,28 +45,30 @@ class StateMirror:
     def load(self, st) -> None:
         """Load a :class:`~tethernet_ros.nodes.convert.StateArrays` into the mirror."""
         s = self.sim.s
-        if st.positions.shape != s.x.shape or st.velocities.shape != s.v.shape:
+        b, t, ring = s.bodies, s.target_body, s.drawstring
+        if st.positions.shape != b.x.shape or st.velocities.shape != b.v.shape:
             raise StateError(f"state of {st.positions.shape[0]} bodies; the scenario has "
-                             f"{s.x.shape[0]}")
-        if st.locked.shape != s.pair_locked.shape:
+                             f"{b.x.shape[0]}")
+        if st.locked.shape != ring.locked.shape:
             raise StateError(f"state with {st.locked.shape[0]} closing pairs; the scenario has "
-                             f"{s.pair_locked.shape[0]}")
-        s.x[:] = st.positions
-        s.v[:] = st.velocities
-        s.tgt_pos[:] = st.target_position
-        s.tgt_quat[:] = st.target_quaternion
-        s.tgt_vel[:] = st.target_velocity
-        s.tgt_omega[:] = st.target_omega
-        s.pair_locked[:] = st.locked
-        s.ev[dyn.E_STEP] = st.step
-        s.ev[dyn.E_CLOSING_ACTIVE] = 1 if st.closing_active else 0
-        s.ev[dyn.E_CLOSING_STEP] = int(round(st.closing_start_time / self.sim.dt)) \
+                             f"{ring.locked.shape[0]}")
+        b.x[:] = st.positions
+        b.v[:] = st.velocities
+        t.pos[:] = st.target_position
+        t.quat[:] = st.target_quaternion
+        t.vel[:] = st.target_velocity
+        t.omega[:] = st.target_omega
+        ring.locked[:] = st.locked
+        s.events[kn.E_STEP] = st.step
+        s.events[kn.E_CLOSING_ACTIVE] = 1 if st.closing_active else 0
+        s.events[kn.E_CLOSING_STEP] = int(round(st.closing_start_time / self.sim.dt)) \
             if st.closing_active else -1
 
     def terms(self) -> CQITerms | None:
         """CQI terms of the loaded state (None if the state is not finite)."""
         s = self.sim.s
-        if not (np.all(np.isfinite(s.x[s.net_nodes])) and np.all(np.isfinite(s.tgt_pos))):
+        if not (np.all(np.isfinite(s.bodies.x[s.net_nodes]))
+                and np.all(np.isfinite(s.target_body.pos))):
             return None
         return self.sim.cqi()
 

@@ -266,14 +266,14 @@ def warm_worker() -> None:
 # --------------------------------------------------------------------------------------
 @lru_cache(maxsize=1)
 def model_version() -> str:
-    """Hash of the simulator core's source (tethernet_ros/core/*.py), so that results of a
-    changed model are never reused.  Computed once per process."""
+    """Hash of the simulator core's source (tethernet_ros/core/**/*.py), so that results of
+    a changed model are never reused.  Computed once per process."""
     from . import core as core_pkg
 
     h = hashlib.sha256()
     core = Path(core_pkg.__file__).parent
-    for p in sorted(core.glob("*.py")):
-        h.update(p.name.encode())
+    for p in sorted(core.rglob("*.py")):
+        h.update(p.relative_to(core).as_posix().encode())
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
 

@@ -48,7 +48,7 @@ class SimConfig:
     """Model and integration settings.
 
     dt: integration step (s); 0 picks dt_safety times the stable step of the design's
-    threads (dynamics.stable_step), rounded down to divide the metric interval; horizon: simulated time by which closing must trigger (s);
+    threads (kernel.stable_step), rounded down to divide the metric interval; horizon: simulated time by which closing must trigger (s);
     settle_time: delay after closing activation at which settled CQI and n_L are read (s).
     Threads: young_modulus E (Pa), damping_ratio zeta, density rho (kg/m^3).
     Net: grid of 17 x 17 nodes, stowed square of side stowed_fraction * L_n; corner threads
@@ -124,6 +124,14 @@ class SimConfig:
         interval = 1.0 / self.metric_rate
         return interval / math.ceil(interval / (self.dt_safety * stable_step))
 
+    @classmethod
+    def preset(cls, name: str, **overrides) -> "SimConfig":
+        """A named model (``MODEL_PRESETS``) with optional field overrides."""
+        if name not in MODEL_PRESETS:
+            raise ConfigError(f"config field 'preset': got {name!r}; must be one of "
+                              f"{sorted(MODEL_PRESETS)}")
+        return cls(**{**MODEL_PRESETS[name], **overrides})
+
     def replace(self, **changes) -> "SimConfig":
         return replace(self, **changes)
 
@@ -134,6 +142,10 @@ class SimConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> "SimConfig":
+        """From a mapping of field values; a ``preset`` key names the model the other
+        fields override (default: the project's default model)."""
+        data = dict(data)
+        preset = data.pop("preset", None)
         names = {f.name for f in fields(cls)}
         for k in data:
             if k not in names:
@@ -143,4 +155,14 @@ class SimConfig:
             data["target"] = TargetConfig(**data["target"])
         if "closing_indices" in data:
             data["closing_indices"] = tuple(data["closing_indices"])
+        if preset is not None:
+            return cls.preset(preset, **data)
         return cls(**data)
+
+
+#: Named models: field values that differ from the defaults.  "spec-text": the model as
+#: SPEC sections 1-3 word it (the project's model up to the reference study; kept so that
+#: its results can be reproduced bit for bit).
+MODEL_PRESETS: dict[str, dict] = {
+    "spec-text": {},
+}

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
-from . import dynamics as dyn
+from . import kernel as kn
 from .config import SimConfig
 from .design import Design
 from .metrics import CQITerms, capture_quality_index, capture_verdict
@@ -31,16 +31,15 @@ class CaptureSimulation:
         self.cfg = scenario.config
         self.dt = scenario.dt
         nb = scenario.n_bodies
-        self.contact_count = np.zeros(1, dtype=np.int64)
-        self.max_penetration = np.zeros(1)
-        self.net_masses = scenario.mass[scenario.net_nodes].copy()
+        self.diag = kn.new_diagnostics()
+        self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
 
     # -- state ---------------------------------------------------------------------
     @property
     def step(self) -> int:
-        return int(self.s.ev[dyn.E_STEP])
+        return int(self.s.events[kn.E_STEP])
 
     @property
     def time(self) -> float:
@@ -48,11 +47,11 @@ class CaptureSimulation:
 
     @property
     def closing_active(self) -> bool:
-        return bool(self.s.ev[dyn.E_CLOSING_ACTIVE])
+        return bool(self.s.events[kn.E_CLOSING_ACTIVE])
 
     @property
     def closing_step(self) -> int | None:
-        return int(self.s.ev[dyn.E_CLOSING_STEP]) if self.closing_active else None
+        return int(self.s.events[kn.E_CLOSING_STEP]) if self.closing_active else None
 
     @property
     def closing_time(self) -> float | None:
@@ -61,7 +60,7 @@ class CaptureSimulation:
 
     @property
     def locked_pairs(self) -> int:
-        return int(self.s.pair_locked.sum())
+        return int(self.s.drawstring.locked.sum())
 
     def end_step(self) -> int:
         """Step at which the episode ends as things stand now."""
@@ -73,56 +72,60 @@ class CaptureSimulation:
         if n_steps <= 0:
             return
         s = self.s
-        dyn.advance(n_steps, s.x, s.v, s.w, s.mass, s.radius, s.contact_mask,
-                    s.grid_n, s.grid_rest, s.grid_kh, s.grid_ch, s.grid_kv, s.grid_cv,
-                    s.links, s.link_rest, s.link_k, s.link_c, s.link_active, s.node_links,
-                    s.node_link_sign,
-                    s.net_nodes, s.ring_pairs, s.pair_locked, s.pair_maxdist, s.pair_lock_step,
-                    s.tether_nodes, s.tether_links, s.centre_node, s.winch_body,
-                    s.tgt_pos, s.tgt_quat, s.tgt_vel, s.tgt_omega, s.tgt_inertia, s.cyl, s.verts,
-                    s.offsets, s.prm, s.ev, self.contact_count, self.max_penetration)
+        kn.advance(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether, s.target_body,
+                   s.params, s.events, self.diag)
+
+    @property
+    def contact_count(self) -> int:
+        """Body-steps spent in contact with the target so far."""
+        return int(self.diag.contact_count[0])
+
+    @property
+    def max_penetration(self) -> float:
+        """Deepest penetration of a body into the target so far (m)."""
+        return float(self.diag.max_penetration[0])
 
     def divergence(self) -> str:
         """'' if the state is sound, else why the simulation diverged."""
-        s = self.s
-        if not (np.all(np.isfinite(s.x)) and np.all(np.isfinite(s.v))
-                and np.all(np.isfinite(s.tgt_pos)) and np.all(np.isfinite(s.tgt_quat))):
+        b, t = self.s.bodies, self.s.target_body
+        if not (np.all(np.isfinite(b.x)) and np.all(np.isfinite(b.v))
+                and np.all(np.isfinite(t.pos)) and np.all(np.isfinite(t.quat))):
             return f"simulation diverged: non-finite state at t = {self.time:.3f} s"
-        vmax = float(np.sqrt((s.v**2).sum(axis=1)).max())
+        vmax = float(np.sqrt((b.v**2).sum(axis=1)).max())
         if vmax > self.cfg.max_speed:
             return (f"simulation diverged: body speed {vmax:.1f} m/s > max_speed "
                     f"{self.cfg.max_speed:g} m/s at t = {self.time:.3f} s")
         return ""
 
     def net_positions(self) -> np.ndarray:
-        return self.s.x[self.s.net_nodes]
+        return self.s.bodies.x[self.s.net_nodes]
 
     def net_centre_of_mass(self) -> np.ndarray:
         return (self.net_positions() * self.net_masses[:, None]).sum(axis=0) / self.net_masses.sum()
 
     def cqi(self) -> CQITerms:
         t = self.s.target
-        return capture_quality_index(self.net_positions(), self.net_masses, self.s.tgt_pos,
+        return capture_quality_index(self.net_positions(), self.net_masses, self.s.target_body.pos,
                                      t.volume, t.area, t.min_surface_distance)
 
     # -- conserved quantities (for verification) ------------------------------------
     def dynamic_bodies(self) -> np.ndarray:
-        return np.flatnonzero(self.s.w > 0)
+        return np.flatnonzero(self.s.bodies.w > 0)
 
     def linear_momentum(self) -> np.ndarray:
         """Total linear momentum (kg m/s) of dynamic bodies and target."""
-        s = self.s
+        s, t = self.s.bodies, self.s.target_body
         b = self.dynamic_bodies()
-        return (s.mass[b, None] * s.v[b]).sum(axis=0) + self.cfg.target.mass * s.tgt_vel
+        return (s.mass[b, None] * s.v[b]).sum(axis=0) + self.cfg.target.mass * t.vel
 
     def kinetic_energy(self) -> float:
-        s = self.s
+        s, t = self.s.bodies, self.s.target_body
         b = self.dynamic_bodies()
         ke = 0.5 * float((s.mass[b] * (s.v[b] ** 2).sum(axis=1)).sum())
-        ke += 0.5 * self.cfg.target.mass * float(s.tgt_vel @ s.tgt_vel)
-        R = dyn.quat_to_matrix(s.tgt_quat)
-        wb = R.T @ s.tgt_omega
-        ke += 0.5 * float((s.tgt_inertia * wb**2).sum())
+        ke += 0.5 * self.cfg.target.mass * float(t.vel @ t.vel)
+        R = kn.quat_to_matrix(t.quat)
+        wb = R.T @ t.omega
+        ke += 0.5 * float((t.inertia * wb**2).sum())
         return ke
 
     def elastic_energy(self) -> float:
@@ -131,7 +134,8 @@ class CaptureSimulation:
         pairs, rest, k, _, active = s.threads()
         act = active == 1
         a, b = pairs[act, 0], pairs[act, 1]
-        stretch = np.maximum(np.linalg.norm(s.x[b] - s.x[a], axis=1) - rest[act], 0.0)
+        x = s.bodies.x
+        stretch = np.maximum(np.linalg.norm(x[b] - x[a], axis=1) - rest[act], 0.0)
         return float((0.5 * k[act] * stretch**2).sum())
 
 
@@ -204,11 +208,11 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
             trace.area_term.append(terms.area_term)
             trace.distance_term.append(terms.distance_term)
             trace.locked_pairs.append(sim.locked_pairs)
-            trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.tgt_pos[2]))
+            trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.target_body.pos[2]))
         if trace is not None and state_every and step % state_every == 0:
             trace.state_time.append(step * sim.dt)
-            trace.positions.append(sim.s.x.copy())
-            trace.target_pose.append([*sim.s.tgt_pos, *sim.s.tgt_quat])
+            trace.positions.append(sim.s.bodies.x.copy())
+            trace.target_pose.append([*sim.s.target_body.pos, *sim.s.target_body.quat])
         if observer is not None and step % metric_every == 0:
             observer(sim)
 
@@ -245,7 +249,7 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
         closing_time=sim.closing_time if sim.closing_active else math.nan,
         completion_time=completion, mass=mass, failure_reason=reason,
         wall_time=time.perf_counter() - t0, seed=None, steps=sim.step,
-        max_penetration=float(sim.max_penetration[0]), settled_terms=settled, trace=trace)
+        max_penetration=sim.max_penetration, settled_terms=settled, trace=trace)
 
 
 def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,

@@ -18,8 +18,8 @@ from .config import SimConfig
 from .design import Design
 from .noise import CORNER_SIGNS, NoiseSample, corner_velocities
 from .target import Target
-from . import dynamics as dyn
-from .dynamics import N_SLOTS
+from . import kernel as kn
+from .kernel import N_SLOTS
 
 
 @dataclass(frozen=True)
@@ -112,67 +112,48 @@ def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
 
 @dataclass
 class Scenario:
-    """All arrays of one episode's initial state (mutated in place by the kernels)."""
+    """One episode's state in the kernel's named structures (mutated in place by the
+    kernels), with the design, configuration and target it was built from.
+
+    dt: integration step (s); stable_step: the explicit method's stable step (s);
+    net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices).
+    """
 
     design: Design
     config: SimConfig
     target: Target
-    x: np.ndarray
-    v: np.ndarray
-    w: np.ndarray
-    mass: np.ndarray
-    radius: np.ndarray
-    contact_mask: np.ndarray
-    grid_n: int
-    grid_rest: float
-    grid_kh: np.ndarray
-    grid_ch: np.ndarray
-    grid_kv: np.ndarray
-    grid_cv: np.ndarray
-    links: np.ndarray
-    link_rest: np.ndarray
-    link_k: np.ndarray
-    link_c: np.ndarray
-    link_active: np.ndarray
-    node_links: np.ndarray
-    node_link_sign: np.ndarray
+    bodies: kn.Bodies
+    grid: kn.Grid
+    links: kn.Links
+    drawstring: kn.Drawstring
+    tether: kn.Tether
+    target_body: kn.TargetBody
+    params: kn.Params
+    events: np.ndarray
     dt: float
     stable_step: float
     net_nodes: np.ndarray
-    ring_pairs: np.ndarray
-    pair_locked: np.ndarray
-    pair_maxdist: np.ndarray
-    pair_lock_step: np.ndarray
-    tether_nodes: np.ndarray
-    tether_links: np.ndarray
-    centre_node: int
-    winch_body: int
     corner_bodies: np.ndarray
-    tgt_pos: np.ndarray
-    tgt_quat: np.ndarray
-    tgt_vel: np.ndarray
-    tgt_omega: np.ndarray
-    tgt_inertia: np.ndarray
-    cyl: np.ndarray
-    verts: np.ndarray
-    offsets: np.ndarray
-    prm: np.ndarray
-    ev: np.ndarray
 
     @property
     def n_bodies(self) -> int:
-        return self.x.shape[0]
+        return self.bodies.x.shape[0]
+
+    def set_params(self, **changes) -> None:
+        """Replace model parameters (kernel Params fields) before or between steps."""
+        self.params = self.params._replace(**changes)
 
     def threads(self):
         """Every thread, grid and other: (pairs (T, 2), rest (m), k (N/m), c (N s/m),
         active flags), for analysis outside the kernel."""
-        gp = grid_thread_pairs(self.grid_n)
+        g, ln = self.grid, self.links
+        gp = grid_thread_pairs(g.n)
         ng = len(gp)
-        return (np.concatenate([gp, self.links]).astype(np.int64),
-                np.concatenate([np.full(ng, self.grid_rest), self.link_rest]),
-                np.concatenate([self.grid_kh.ravel(), self.grid_kv.ravel(), self.link_k]),
-                np.concatenate([self.grid_ch.ravel(), self.grid_cv.ravel(), self.link_c]),
-                np.concatenate([np.ones(ng, dtype=np.uint8), self.link_active]))
+        return (np.concatenate([gp, ln.pairs]).astype(np.int64),
+                np.concatenate([np.full(ng, g.rest), ln.rest]),
+                np.concatenate([g.kh.ravel(), g.kv.ravel(), ln.k]),
+                np.concatenate([g.ch.ravel(), g.cv.ravel(), ln.c]),
+                np.concatenate([np.ones(ng, dtype=np.uint8), ln.active]))
 
 
 def build_scenario(design: Design, actions: Actions, world: World,
@@ -219,7 +200,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
         for j in range(n):
             x[grid_index(i, j, n)] = [(j - meshes / 2) * s, (i - meshes / 2) * s, 0.0]
 
-    # grid threads are implicit in the kernel (dynamics.advance); their lumped mass: half of
+    # grid threads are implicit in the kernel (kernel.Grid); their lumped mass: half of
     # each x- and y-thread to each end node
     grid_pairs = grid_thread_pairs(n)
     for a, b in grid_pairs:
@@ -294,42 +275,40 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
-    prm = np.zeros(dyn.N_PRM)
-    prm[dyn.P_CLOSE_FORCE] = cfg.closing_force_factor * design.m_c * design.L_n
-    prm[dyn.P_CLOSE_THRESHOLD] = actions.closing_displacement
-    prm[dyn.P_LOCK_DIST] = cfg.lock_distance
-    prm[dyn.P_MU] = cfg.friction
-    prm[dyn.P_OMEGA_CONTACT] = cfg.contact_frequency
-    prm[dyn.P_ZETA_CONTACT] = cfg.contact_damping_ratio
-    prm[dyn.P_TGT_INV_MASS] = 1.0 / cfg.target.mass
-    prm[dyn.P_TGT_BOUND] = target.bounding_radius
-    prm[dyn.P_TETHER_LIN_DENSITY] = lin_density
-    prm[dyn.P_TETHER_EA] = EA
-    prm[dyn.P_ZETA_THREAD] = cfg.damping_ratio
-    ev = np.zeros(dyn.N_EV, dtype=np.int64)
-    ev[dyn.E_CLOSING_ARMED] = 1
-    ev[dyn.E_CLOSING_STEP] = -1
-
+    params = kn.Params(
+        dt=0.0, close_force=cfg.closing_force_factor * design.m_c * design.L_n,
+        close_threshold=float(actions.closing_displacement), lock_dist=cfg.lock_distance,
+        mu=cfg.friction, omega_contact=cfg.contact_frequency,
+        zeta_contact=cfg.contact_damping_ratio, tgt_inv_mass=1.0 / cfg.target.mass,
+        tgt_bound=target.bounding_radius, tether_lin_density=lin_density, tether_EA=EA,
+        zeta_thread=cfg.damping_ratio)
+    net_nodes = np.arange(n_net, dtype=np.int64)
     sc = Scenario(
-        design=design, config=cfg, target=target, x=x, v=v, w=w, mass=mass, radius=radius,
-        contact_mask=contact, grid_n=n, grid_rest=l0, grid_kh=grid_kh, grid_ch=grid_ch,
-        grid_kv=grid_kv, grid_cv=grid_cv, links=links, link_rest=rest, link_k=k, link_c=damping,
-        link_active=active, node_links=slots, node_link_sign=signs, dt=0.0, stable_step=0.0, net_nodes=np.arange(n_net, dtype=np.int64),
-        ring_pairs=ring_pairs, pair_locked=np.zeros(len(ring_pairs), dtype=np.uint8),
-        pair_maxdist=np.zeros(len(ring_pairs)), pair_lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
-        tether_nodes=np.arange(i_tether0, i_chaser, dtype=np.int64),
-        tether_links=np.array(tether_links, dtype=np.int64), centre_node=centre, winch_body=i_chaser,
-        corner_bodies=corner_bodies,
-        tgt_pos=np.array([0.0, 0.0, world.distance]),
-        tgt_quat=rotation_quaternion(world.rotation, world.rotation_axis),
-        tgt_vel=np.zeros(3), tgt_omega=np.zeros(3), tgt_inertia=target.inertia.copy(),
-        cyl=target.cylinder(), verts=verts, offsets=offsets, prm=prm, ev=ev,
+        design=design, config=cfg, target=target,
+        bodies=kn.Bodies(x=x, v=v, w=w, mass=mass, radius=radius, contact_mask=contact),
+        grid=kn.Grid(n=n, rest=l0, kh=grid_kh, ch=grid_ch, kv=grid_kv, cv=grid_cv),
+        links=kn.Links(pairs=links, rest=rest, k=k, c=damping, active=active, node_links=slots,
+                       node_sign=signs),
+        drawstring=kn.Drawstring(pairs=ring_pairs, locked=np.zeros(len(ring_pairs), dtype=np.uint8),
+                                 maxdist=np.zeros(len(ring_pairs)),
+                                 lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
+                                 trigger_nodes=net_nodes),
+        tether=kn.Tether(nodes=np.arange(i_tether0, i_chaser, dtype=np.int64),
+                         links=np.array(tether_links, dtype=np.int64), centre=centre,
+                         winch=i_chaser),
+        target_body=kn.TargetBody(
+            pos=np.array([0.0, 0.0, world.distance]),
+            quat=rotation_quaternion(world.rotation, world.rotation_axis),
+            vel=np.zeros(3), omega=np.zeros(3), inertia=target.inertia.copy(),
+            cyl=target.cylinder(), verts=verts, offsets=offsets),
+        params=params, events=kn.new_events(), dt=0.0, stable_step=0.0,
+        net_nodes=net_nodes, corner_bodies=corner_bodies,
     )
     # the integration step: a fraction of the stable step of every thread (grid and other)
     pairs, _, k_all, _, active_all = sc.threads()
-    _, sc.stable_step = dyn.stable_step(pairs, k_all, active_all, w, nb)
+    _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb)
     sc.dt = cfg.step_for(sc.stable_step)
-    sc.prm[dyn.P_DT] = sc.dt
+    sc.set_params(dt=sc.dt)
     return sc
 
 

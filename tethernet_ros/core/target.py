@@ -160,7 +160,7 @@ class Target:
     def signed_distance(self, p_body) -> tuple[float, np.ndarray]:
         """Signed distance (m, negative inside) of a body-frame point (about the CoM) and
         the outward unit normal."""
-        from .dynamics import target_signed_distance
+        from .kernel import target_signed_distance
 
         verts, offsets = self.packed_polygons()
         d, n = target_signed_distance(np.asarray(p_body, dtype=float), self.cylinder(), verts, offsets)

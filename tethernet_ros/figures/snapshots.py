@@ -55,7 +55,7 @@ def quat_matrix(q) -> np.ndarray:
 
 def ring_nodes(scenario) -> np.ndarray:
     """The drawstring's nodes in ring order (from the scenario's adjacent pairs)."""
-    return np.asarray(scenario.ring_pairs)[:, 0]
+    return np.asarray(scenario.drawstring.pairs)[:, 0]
 
 
 def mouth_area(x: np.ndarray, ring: np.ndarray) -> float:
@@ -102,7 +102,7 @@ def snapshot_moments(result, scenario) -> list[Moment]:
     # 1. released
     rel = None
     for i, x in enumerate(X):
-        if np.min(np.linalg.norm(x[net_idx] - x[scenario.winch_body], axis=1)) >= mesh:
+        if np.min(np.linalg.norm(x[net_idx] - x[scenario.tether.winch], axis=1)) >= mesh:
             rel = i
             break
     # 2. maximum mouth opening, up to closing activation
@@ -185,7 +185,7 @@ def _draw(ax, scenario, x, pose, moment, limits):
     segs = P(x)[net_links]
     ax.add_collection3d(Line3DCollection(segs, colors="tab:blue", linewidths=0.5))
     lo, hi = limits
-    tether = [scenario.centre_node, *np.asarray(scenario.tether_nodes).tolist(), scenario.winch_body]
+    tether = [scenario.tether.centre, *np.asarray(scenario.tether.nodes).tolist(), scenario.tether.winch]
     t = P(x[tether])
     tsegs = [c for c in (clip_segment(a, b, lo, hi) for a, b in zip(t[:-1], t[1:])) if c is not None]
     if tsegs:
@@ -194,7 +194,7 @@ def _draw(ax, scenario, x, pose, moment, limits):
     ax.scatter(ring[:, 0], ring[:, 1], ring[:, 2], s=6, color="tab:orange")
     c = P(x[np.asarray(scenario.corner_bodies)])
     ax.scatter(c[:, 0], c[:, 1], c[:, 2], s=14, color="tab:red")
-    w = P(x[scenario.winch_body])
+    w = P(x[scenario.tether.winch])
     if np.all(w >= lo) and np.all(w <= hi):
         ax.scatter([w[0]], [w[1]], [w[2]], s=30, marker="s", color="k")
     ax.set_xlim(lo[0], hi[0])

@@ -258,17 +258,18 @@ class StateArrays:
 def state_arrays(sim) -> StateArrays:
     """Snapshot (copies) of a CaptureSimulation's current state."""
     s = sim.s
+    b, t = s.bodies, s.target_body
     ct = sim.closing_time
     return StateArrays(
         step=sim.step, sim_time=sim.time,
-        positions=np.array(s.x, dtype=float), velocities=np.array(s.v, dtype=float),
-        target_position=np.array(s.tgt_pos, dtype=float),
-        target_quaternion=np.array(s.tgt_quat, dtype=float),
-        target_velocity=np.array(s.tgt_vel, dtype=float),
-        target_omega=np.array(s.tgt_omega, dtype=float),
+        positions=np.array(b.x, dtype=float), velocities=np.array(b.v, dtype=float),
+        target_position=np.array(t.pos, dtype=float),
+        target_quaternion=np.array(t.quat, dtype=float),
+        target_velocity=np.array(t.vel, dtype=float),
+        target_omega=np.array(t.omega, dtype=float),
         closing_active=sim.closing_active,
         closing_start_time=-1.0 if ct is None else float(ct),
-        locked=np.array(s.pair_locked, dtype=bool),
+        locked=np.array(s.drawstring.locked, dtype=bool),
         num_net_nodes=len(s.net_nodes), num_corner_masses=len(s.corner_bodies))
 
 
@@ -434,7 +435,7 @@ class MarkerBuilder:
     def __init__(self, scenario, frame_id: str = "chaser"):
         s = scenario
         self.frame_id = frame_id
-        n = s.grid_n
+        n = s.grid.n
         grid = np.arange(n * n).reshape(n, n)          # node (i, j) = n i + j
         rows = [grid[i] if i % 2 == 0 else grid[i, ::-1] for i in range(n)]
         cols = [grid[:, j] if j % 2 == 0 else grid[::-1, j] for j in range(n)]
@@ -442,13 +443,13 @@ class MarkerBuilder:
         self.col_snake = np.concatenate(cols)
         net = set(int(i) for i in s.net_nodes)
         corners = set(int(i) for i in s.corner_bodies)
-        self.corner_threads = np.array([(a, b) for a, b in s.links.tolist()
+        self.corner_threads = np.array([(a, b) for a, b in s.links.pairs.tolist()
                                         if (a in net and b in corners) or (b in net and a in corners)],
                                        dtype=np.int64).reshape(-1, 2)
-        self.tether_chain = np.array([s.centre_node, *s.tether_nodes, s.winch_body])
-        self.ring_pairs = s.ring_pairs
+        self.tether_chain = np.array([s.tether.centre, *s.tether.nodes, s.tether.winch])
+        self.ring_pairs = s.drawstring.pairs
         self.corners = s.corner_bodies
-        self.winch = s.winch_body
+        self.winch = s.tether.winch
         tc = s.config.target
         self.target_scale = (tc.diameter, tc.diameter, tc.length)
         self.chaser_side = s.config.chaser_side

@@ -1,0 +1,17 @@
+"""The numba kernel: named state (``state``), one phase per module (threads, contact,
+drawstring, tether, rigid target) and the step methods that compose them (``explicit``).
+
+Units: SI throughout (m, s, kg, N).
+"""
+from .explicit import advance
+from .geometry import quat_to_matrix, target_signed_distance
+from .stability import stable_step
+from .state import (E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED,
+                    N_EV, N_SLOTS, Bodies, Diagnostics, Drawstring, Grid, Links, Params,
+                    TargetBody, Tether, empty_drawstring, empty_grid, new_diagnostics, new_events)
+
+__all__ = ["advance", "quat_to_matrix", "target_signed_distance", "stable_step",
+           "E_CLOSING_ACTIVE", "E_CLOSING_ARMED", "E_CLOSING_STEP", "E_STEP", "E_TETHER_LOCKED",
+           "N_EV", "N_SLOTS", "Bodies", "Diagnostics", "Drawstring", "Grid", "Links", "Params",
+           "TargetBody", "Tether", "empty_drawstring", "empty_grid", "new_diagnostics",
+           "new_events"]

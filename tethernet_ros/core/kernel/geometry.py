@@ -1,0 +1,116 @@
+"""Target geometry for the kernels: signed distances of the target's solids of revolution
+and the rotation matrix of a quaternion.  Lengths in m."""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def polygon_sdf(pa, pr, verts, start, stop):
+    """Signed distance (m) of the 2D point (pa, pr) to the convex polygon
+    verts[start:stop] and its gradient (ga, gr).  Negative inside."""
+    d = (pa - verts[start, 0]) ** 2 + (pr - verts[start, 1]) ** 2
+    ba = pa - verts[start, 0]
+    br = pr - verts[start, 1]
+    s = 1.0
+    n = stop - start
+    for k in range(n):
+        i = start + k
+        j = i - 1 if k > 0 else stop - 1
+        ea = verts[j, 0] - verts[i, 0]
+        er = verts[j, 1] - verts[i, 1]
+        wa = pa - verts[i, 0]
+        wr = pr - verts[i, 1]
+        t = (wa * ea + wr * er) / (ea * ea + er * er)
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        qa = wa - ea * t
+        qr = wr - er * t
+        dd = qa * qa + qr * qr
+        if dd < d:
+            d = dd
+            ba = qa
+            br = qr
+        c1 = pr >= verts[i, 1]
+        c2 = pr < verts[j, 1]
+        c3 = ea * wr > er * wa
+        if (c1 and c2 and c3) or ((not c1) and (not c2) and (not c3)):
+            s = -s
+    dist = np.sqrt(d)
+    if dist > 1e-14:
+        ga = s * ba / dist
+        gr = s * br / dist
+    else:
+        ga = 0.0
+        gr = 1.0
+    return s * dist, ga, gr
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def cylinder_sdf(pa, pr, cyl):
+    """Signed distance (m) of the meridional point (pa, pr >= 0) to the cylinder
+    cyl = [axial centre, half length, radius] and its gradient (ga, gr).  Written with
+    |pa - centre| so that it is exactly mirror-symmetric about the mid-plane."""
+    da = pa - cyl[0]
+    sa = 1.0 if da >= 0.0 else -1.0
+    qa = abs(da) - cyl[1]
+    qr = pr - cyl[2]
+    if qa > 0.0 and qr > 0.0:
+        d = np.sqrt(qa * qa + qr * qr)
+        return d, sa * qa / d, qr / d
+    if qa > qr:
+        return qa, sa, 0.0
+    return qr, 0.0, 1.0
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def local_sdf(lx, ly, lz, cyl, verts, offsets):
+    """Signed distance and outward unit normal (body frame) of a body-frame point to the
+    union of the cylinder and the extra solids of revolution."""
+    r = np.sqrt(ly * ly + lz * lz)
+    if r > 1e-12:
+        uy = ly / r
+        uz = lz / r
+    else:
+        uy = 1.0
+        uz = 0.0
+    best, ga, gr = cylinder_sdf(lx, r, cyl)
+    for p in range(offsets.shape[0] - 1):
+        sd, pa_, pr_ = polygon_sdf(lx, r, verts, offsets[p], offsets[p + 1])
+        if sd < best:
+            best = sd
+            ga = pa_
+            gr = pr_
+    return best, ga, gr * uy, gr * uz
+
+
+@njit(cache=True)
+def target_signed_distance(p_local, cyl, verts, offsets):
+    """Signed distance (m) of a body-frame point to the target and the outward normal."""
+    sd, nx, ny, nz = local_sdf(p_local[0], p_local[1], p_local[2], cyl, verts, offsets)
+    return sd, np.array([nx, ny, nz])
+
+
+@njit(cache=True)
+def quat_to_matrix(q):
+    """Rotation matrix of the unit quaternion q = (w, x, y, z) (body -> world)."""
+    R = np.empty((3, 3))
+    quat_to_matrix_into(q, R)
+    return R
+
+
+@njit(cache=True, inline='always')
+def quat_to_matrix_into(q, R):
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    R[0, 0] = 1 - 2 * (y * y + z * z)
+    R[0, 1] = 2 * (x * y - w * z)
+    R[0, 2] = 2 * (x * z + w * y)
+    R[1, 0] = 2 * (x * y + w * z)
+    R[1, 1] = 1 - 2 * (x * x + z * z)
+    R[1, 2] = 2 * (y * z - w * x)
+    R[2, 0] = 2 * (x * z - w * y)
+    R[2, 1] = 2 * (y * z + w * x)
+    R[2, 2] = 1 - 2 * (x * x + y * y)
