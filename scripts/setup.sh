@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Create/refresh the project's virtual environment (.venv) from the project's own files:
 #   1. .venv with the machine's CPython 3.11 (python3 -m venv)
-#   2. pinned pip requirements (requirements.txt + requirements-ros.txt: ROS 2 Jazzy wheels)
-#   3. links for the two include paths that the Jazzy message wheels export from the
-#      machine that built them (/opt/python/cp311-cp311/...), so CMake can configure
-#   4. the tethernet_msgs interface package (msg_defs/) built with cmake into .venv
-#   5. the project itself, editable (console scripts: tethernet, sim_node, ...)
+#   2. pinned pip requirements (requirements.txt + requirements-ros.txt: ROS 2 Jazzy wheels;
+#      requirements-colcon.txt: colcon from PyPI, for the workspace build test)
+#   3. the tethernet_msgs interface package (msg_defs/) built with cmake into .venv
+#   4. the project itself, editable (console scripts: tethernet, sim_node, ...)
+# Writes nothing outside the project directory and needs no root: the include paths that
+# the Jazzy message wheels export from the machine that built them (/opt/python/...) are
+# pointed at the venv's by msg_defs/cmake/pypi_wheel_includes.cmake, inside the build.
 # Idempotent. A stamp keyed on the hash of its inputs makes a re-run a no-op (<1 s).
 # Only network needed: PyPI. Env: PYTHON=/path/to/python3.11 to choose the interpreter,
 # TETHERNET_SETUP_FORCE=1 to redo every step.
@@ -16,7 +18,6 @@ cd "$ROOT"
 VENV="$ROOT/.venv"
 STAMP="$VENV/.tethernet-setup-stamp"
 BUILD_DIR="$ROOT/build/msg_defs"
-WHEEL_PREFIX=/opt/python/cp311-cp311   # prefix baked into the Jazzy wheels' CMake exports
 
 log() { printf '[setup %4ss] %s\n' "$SECONDS" "$*" >&2; }
 die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
@@ -24,8 +25,8 @@ die() { printf '[setup] ERROR: %s\n' "$*" >&2; exit 1; }
 # --- inputs hash ---------------------------------------------------------------------
 inputs_hash() {
     {
-        for f in requirements.txt requirements-ros.txt setup.py setup.cfg package.xml \
-                 scripts/setup.sh; do
+        for f in requirements.txt requirements-ros.txt requirements-colcon.txt setup.py \
+                 setup.cfg package.xml scripts/setup.sh; do
             printf '== %s\n' "$f"; cat "$f"
         done
         find msg_defs -type f ! -name '*~' -print | LC_ALL=C sort | while read -r f; do
@@ -35,29 +36,6 @@ inputs_hash() {
 }
 HASH="$(inputs_hash)"
 
-# --- include-path links (idempotent) ---------------------------------------------------
-ensure_link() {  # ensure_link LINK TARGET
-    local link="$1" target="$2"
-    [ -d "$target" ] || die "link target $target does not exist"
-    if [ -L "$link" ] && [ "$(readlink "$link")" = "$target" ]; then return 0; fi
-    if [ -e "$link" ] && [ ! -L "$link" ]; then
-        # a real directory (e.g. a machine that really has /opt/python): leave it alone
-        log "$link exists and is not a link; leaving it"
-        return 0
-    fi
-    mkdir -p "$(dirname "$link")" || die "cannot create $(dirname "$link") (need write access to /opt)"
-    ln -sfn "$target" "$link"
-    log "linked $link -> $target"
-}
-ensure_include_links() {
-    local py_inc np_inc
-    py_inc="$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
-    np_inc="$("$VENV/bin/python" -c 'import numpy; print(numpy.get_include())')"
-    [ -f "$py_inc/Python.h" ] || die "Python headers not found in $py_inc (install python3.11-dev)"
-    ensure_link "$WHEEL_PREFIX/include/python3.11" "$py_inc"
-    ensure_link "$WHEEL_PREFIX/lib/python3.11/site-packages/numpy/_core/include" "$np_inc"
-}
-
 venv_ok() {
     [ -x "$VENV/bin/python" ] &&
         "$VENV/bin/python" -c 'import sys; assert sys.version_info[:2] == (3, 11)' 2>/dev/null
@@ -66,11 +44,6 @@ venv_ok() {
 # --- fast path -------------------------------------------------------------------------
 if [ -z "${TETHERNET_SETUP_FORCE:-}" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$HASH" ] \
    && venv_ok && [ -d "$VENV/share/tethernet_msgs" ] && [ -x "$VENV/bin/tethernet" ]; then
-    # the links only matter for a rebuild of msg_defs; restore them if the machine lost them
-    if [ ! -e "$WHEEL_PREFIX/include/python3.11" ] ||
-       [ ! -e "$WHEEL_PREFIX/lib/python3.11/site-packages/numpy/_core/include" ]; then
-        ensure_include_links
-    fi
     log "up to date (.venv, tethernet_msgs, editable install)"
     exit 0
 fi
@@ -100,12 +73,14 @@ rm -f "$STAMP"
 export PIP_DISABLE_PIP_VERSION_CHECK=1
 log "installing pinned requirements"
 "$VENV/bin/python" -m pip install -q -r requirements.txt -r requirements-ros.txt 2> >(grep -v 'is ignored: it is neither a file nor a directory' >&2)
+# colcon's build verbs only: --no-deps leaves out the pytest plugins that colcon-core
+# requires for its `colcon test` verb (they would join this venv's own test runs)
+"$VENV/bin/python" -m pip install -q --no-deps -r requirements-colcon.txt 2> >(grep -v 'is ignored: it is neither a file nor a directory' >&2)
 
-# --- 3. include links ------------------------------------------------------------------
-ensure_include_links
-
-# --- 4. interface package --------------------------------------------------------------
+# --- 3. interface package --------------------------------------------------------------
 log "building msg_defs (tethernet_msgs) into .venv"
+PY_INC="$("$VENV/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["include"])')"
+[ -f "$PY_INC/Python.h" ] || die "Python headers not found in $PY_INC (install python3.11-dev)"
 mkdir -p "$ROOT/build"
 if [ -f "$BUILD_DIR/CMakeCache.txt" ] &&
    ! grep -qx "CMAKE_HOME_DIRECTORY:INTERNAL=$ROOT/msg_defs" "$BUILD_DIR/CMakeCache.txt"; then
@@ -123,7 +98,7 @@ fi
     && cmake --install "$BUILD_DIR" >>"$ROOT/build/msg_defs.log" 2>&1
 ) || { tail -40 "$ROOT/build/msg_defs.log" >&2; die "msg_defs build failed (log: build/msg_defs.log)"; }
 
-# --- 5. the project, editable ----------------------------------------------------------
+# --- 4. the project, editable ----------------------------------------------------------
 log "installing the project (editable)"
 "$VENV/bin/python" -m pip install -q --no-deps --no-build-isolation --use-pep517 \
     --config-settings editable_mode=compat -e . \
