@@ -34,14 +34,18 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
     params = kn.Params(dt=dt, close_force=0.0, close_threshold=1e9, lock_dist=1.0,
-                       mu=cfg.friction, omega_contact=cfg.contact_frequency,
+                       mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
+                       contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
+                       omega_contact=cfg.contact_frequency,
                        zeta_contact=cfg.contact_damping_ratio, tgt_inv_mass=1.0 / cfg.target.mass,
                        tgt_bound=target.bounding_radius, tether_lin_density=0.0, tether_EA=0.0,
-                       zeta_thread=0.0)
+                       zeta_thread=0.0, thread_damping=0, omega_1=0.0,
+                       lock_model=kn.LOCK_MODELS.index(cfg.lock_model))
     return Scenario(
         design=REFERENCE_DESIGNS["baseline"], config=cfg, target=target,
         bodies=kn.Bodies(x=x, v=v, w=w, mass=np.where(np.isinf(mass), 1e300, mass),
-                         radius=np.full(nb, 0.02), contact_mask=np.ones(nb, dtype=np.uint8)),
+                         radius=np.full(nb, 0.02), contact_mask=np.ones(nb, dtype=np.uint8),
+                         k_contact=np.zeros(nb), c_contact=np.zeros(nb)),
         grid=kn.empty_grid(),
         links=kn.Links(pairs=links, rest=np.asarray(rest, dtype=float),
                        k=np.broadcast_to(stiffness, (nl,)).astype(float).copy(),
@@ -55,5 +59,6 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
                                   inertia=target.inertia.copy(), cyl=target.cylinder(), verts=verts,
                                   offsets=offsets),
         params=params, events=kn.new_events(closing_armed=False, tether_locked=True),
+        solver=kn.new_solver(0, nl, nb, 0),
         dt=dt, stable_step=dt, net_nodes=np.arange(nb, dtype=np.int64),
         corner_bodies=np.zeros(0, dtype=np.int64))

@@ -1,4 +1,10 @@
-"""Simulation configuration: every model constant of SPEC sections 1-4 with its default.
+"""Simulation configuration: every model constant and modelling choice with its default,
+its source and its allowed range.
+
+Where the source study's text (SPEC sections 1-3) and its reference implementation (Botta
+et al.'s Vortex model, SPEC section 10) differ, both are selectable; ``MODEL_PRESETS``
+names the two complete models ("spec-text", "reference").  docs/model.md lists every
+value with its source.
 
 Units: SI (m, s, kg, N, Pa).
 """
@@ -40,6 +46,26 @@ _LIMITS = {
     "max_speed": (1.0, 1e6, "a speed in [1, 1e6] m/s"),
     "success_cqi": (0.0, 1e6, "a CQI threshold >= 0"),
     "success_locked_pairs": (0, 12, "a pair count in [0, 12]"),
+    "static_friction_scale": (1.0, 10.0, "a static / kinetic friction ratio in [1, 10]"),
+    "poisson_ratio": (0.0, 0.5, "a Poisson ratio in [0, 0.5]"),
+    "target_young_modulus": (1e6, 1e13, "a Young's modulus in [1e6, 1e13] Pa"),
+    "target_poisson_ratio": (0.0, 0.5, "a Poisson ratio in [0, 0.5]"),
+    "corner_mass_density": (100.0, 1e5, "a density in [100, 1e5] kg/m^3"),
+    "hertz_penetration": (1e-7, 1e-2, "a penetration in [1e-7, 1e-2] m"),
+    "hertz_divisor": (1.0, 1e3, "a divisor in [1, 1000]"),
+    "tether_radius": (0.0, 0.05, "a radius in [0, 0.05] m (0: the net's thread radius r_n)"),
+    "implicit_iterations": (1, 1000, "an iteration count in [1, 1000]"),
+    "implicit_dt": (1e-5, 0.01, "a time step in [1e-5, 0.01] s"),
+}
+
+# field -> allowed values of the modelling choices
+_CHOICES = {
+    "thread_damping": ("element", "stiffness"),
+    "contact_model": ("frequency", "hertz"),
+    "contact_radius": ("fixed", "density"),
+    "lock_model": ("ratchet", "latch"),
+    "drawstring_corners": ("net", "corner_mass"),
+    "integrator": ("explicit", "implicit"),
 }
 
 
@@ -63,6 +89,30 @@ class SimConfig:
     Output: metric_rate (Hz) of the CQI / n_L trace, state_rate (Hz) of node positions.
     max_speed (m/s): any body faster than this marks the episode as diverged.
     Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
+
+    Modelling choices (text = SPEC sections 1-3, code = the reference implementation,
+    SPEC section 10):
+    thread_damping: "element" (text: c = 2 zeta sqrt(k m_eff) per thread) or "stiffness"
+    (code: c = 2 zeta k / omega_1, omega_1 the net's first axial natural frequency);
+    friction: kinetic Coulomb coefficient (text 0.3; code net-aluminium 0.19 / 1.25 =
+    0.152), static_friction_scale: static / kinetic ratio (text 1; code 1.25);
+    contact_model: "frequency" (per-body natural frequency contact_frequency) or "hertz"
+    (code: Hertz stiffness 4/3 E* sqrt(R) sqrt(2 hertz_penetration / 3) / hertz_divisor,
+    E* from young_modulus / poisson_ratio of the net and target_young_modulus /
+    target_poisson_ratio of the stage; damping 2 contact_damping_ratio sqrt(k m));
+    contact_radius: "fixed" (node_contact_radius, corner_mass_radius) or "density" (code:
+    a sphere of the body's mass at thread density, corner masses at corner_mass_density);
+    corner_thread_meshes: corner-thread length in mesh sides (text 1, code sqrt 2);
+    closing_force_factor: F_c = factor m_c L_n (text 2/25, code 2/1^2 for the perimeter);
+    lock_model: "ratchet" (text as implemented: the force acts on every pair, a locked pair
+    is held by a one-sided joint that only shortens) or "latch" (code: the force acts only
+    while a pair is >= lock_distance apart; a lock is a latch that holds nothing);
+    drawstring_corners: the ring's corners are the net's corner nodes ("net", text) or the
+    corner masses ("corner_mass", code); tether_radius: main tether thread radius (m; 0:
+    r_n as in the text; code 2 mm).
+    integrator: "explicit" (symplectic Euler at a fraction of the stable step) or
+    "implicit" (compliant constraints at implicit_dt (s) unless dt is set,
+    implicit_iterations solver sweeps per step).
     """
 
     dt: float = 0.0
@@ -91,6 +141,22 @@ class SimConfig:
     max_speed: float = 500.0
     success_cqi: float = 2.0
     success_locked_pairs: int = 10
+    thread_damping: str = "element"
+    static_friction_scale: float = 1.0
+    contact_model: str = "frequency"
+    poisson_ratio: float = 0.36
+    target_young_modulus: float = 69e9
+    target_poisson_ratio: float = 0.33
+    hertz_penetration: float = 1e-4
+    hertz_divisor: float = 10.0
+    contact_radius: str = "fixed"
+    corner_mass_density: float = 2700.0
+    lock_model: str = "ratchet"
+    drawstring_corners: str = "net"
+    tether_radius: float = 0.0
+    integrator: str = "explicit"
+    implicit_iterations: int = 8
+    implicit_dt: float = 1e-3
     target: TargetConfig = field(default_factory=TargetConfig)
 
     def __post_init__(self):
@@ -99,7 +165,12 @@ class SimConfig:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
                     or not (lo <= v <= hi):
                 raise ConfigError(f"config field '{name}': got {v!r}; must be {what}")
-        for name in ("tether_segments", "success_locked_pairs", "grid_nodes"):
+        for name, allowed in _CHOICES.items():
+            v = getattr(self, name)
+            if v not in allowed:
+                raise ConfigError(f"config field '{name}': got {v!r}; must be one of "
+                                  f"{', '.join(repr(a) for a in allowed)}")
+        for name in ("tether_segments", "success_locked_pairs", "grid_nodes", "implicit_iterations"):
             if int(getattr(self, name)) != getattr(self, name):
                 raise ConfigError(f"config field '{name}': must be an integer")
         if self.grid_nodes != 17:
@@ -111,16 +182,21 @@ class SimConfig:
         object.__setattr__(self, "closing_indices", idx)
         if isinstance(self.target, dict):
             object.__setattr__(self, "target", TargetConfig(**self.target))
-        if self.dt > 0:
-            steps_per_metric = 1.0 / (self.metric_rate * self.dt)
-            if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
-                raise ConfigError("config field 'dt': 1/(metric_rate*dt) must be a whole number of steps")
+        for name in ("dt", "implicit_dt"):
+            step = getattr(self, name)
+            if step > 0:
+                steps_per_metric = 1.0 / (self.metric_rate * step)
+                if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
+                    raise ConfigError(f"config field '{name}': 1/(metric_rate*{name}) must be a "
+                                      "whole number of steps")
 
     def step_for(self, stable_step: float) -> float:
         """The integration step (s): ``dt`` if set, else dt_safety * stable_step rounded
         down so that a whole number of steps fills the metric interval."""
         if self.dt > 0:
             return self.dt
+        if self.integrator == "implicit":
+            return self.implicit_dt
         interval = 1.0 / self.metric_rate
         return interval / math.ceil(interval / (self.dt_safety * stable_step))
 
@@ -165,4 +241,10 @@ class SimConfig:
 #: its results can be reproduced bit for bit).
 MODEL_PRESETS: dict[str, dict] = {
     "spec-text": {},
+    # the reference implementation's choices (SPEC section 10)
+    "reference": dict(
+        thread_damping="stiffness", friction=0.152, static_friction_scale=1.25,
+        contact_model="hertz", contact_damping_ratio=0.106, contact_radius="density",
+        corner_thread_meshes=2.0 ** 0.5, closing_force_factor=2.0, lock_model="latch",
+        drawstring_corners="corner_mass", tether_radius=0.002),
 }

@@ -72,8 +72,13 @@ class CaptureSimulation:
         if n_steps <= 0:
             return
         s = self.s
-        kn.advance(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether, s.target_body,
-                   s.params, s.events, self.diag)
+        if self.cfg.integrator == "implicit":
+            kn.advance_implicit(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether,
+                                s.target_body, s.params, s.events, self.diag, s.solver,
+                                self.cfg.implicit_iterations)
+        else:
+            kn.advance(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether,
+                       s.target_body, s.params, s.events, self.diag)
 
     @property
     def contact_count(self) -> int:

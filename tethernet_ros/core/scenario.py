@@ -16,6 +16,7 @@ import numpy as np
 
 from .config import SimConfig
 from .design import Design
+from . import materials
 from .noise import CORNER_SIGNS, NoiseSample, corner_velocities
 from .target import Target
 from . import kernel as kn
@@ -75,13 +76,6 @@ def grid_thread_pairs(n: int) -> np.ndarray:
     return np.concatenate([xs, ys]).astype(np.int64)
 
 
-def thread_damping(k, m_a, m_b, zeta):
-    """c = 2 zeta sqrt(k m_eff) (N s/m), m_eff = m_a m_b / (m_a + m_b) computed so that it
-    is the same to the last bit whichever end comes first."""
-    m_eff = (m_a * m_b) / (m_a + m_b)
-    return 2.0 * zeta * np.sqrt(k * m_eff)
-
-
 def closing_ring(config: SimConfig) -> list[int]:
     """Perimeter nodes of the drawstring in ring order (12 for the default indices)."""
     n = config.grid_nodes
@@ -113,7 +107,8 @@ def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
 @dataclass
 class Scenario:
     """One episode's state in the kernel's named structures (mutated in place by the
-    kernels), with the design, configuration and target it was built from.
+    kernels), with the design, configuration and target it was built from.  ``solver``
+    holds the implicit method's warm start.
 
     dt: integration step (s); stable_step: the explicit method's stable step (s);
     net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices).
@@ -130,6 +125,7 @@ class Scenario:
     target_body: kn.TargetBody
     params: kn.Params
     events: np.ndarray
+    solver: kn.Solver
     dt: float
     stable_step: float
     net_nodes: np.ndarray
@@ -206,10 +202,19 @@ def build_scenario(design: Design, actions: Actions, world: World,
     for a, b in grid_pairs:
         mass[a] += 0.5 * lin_density * l0
         mass[b] += 0.5 * lin_density * l0
-    # drawstring mass (the allowance of m_a: 4 L_n of thread) spread over the ring nodes
+    # the drawstring ring: through the net's corner nodes or through the corner masses
+    cnodes = corner_nodes(cfg)
+    corner_bodies = np.arange(i_corner0, i_corner0 + 4)
     ring = closing_ring(cfg)
+    if cfg.drawstring_corners == "corner_mass":
+        by_node = dict(zip(cnodes, corner_bodies.tolist()))
+        ring = [by_node.get(r, r) for r in ring]
+    # drawstring mass (the allowance of m_a: 4 L_n of thread) spread over the ring bodies
+    # (net nodes now, corner masses once they exist below)
+    ring_mass = 4.0 * design.L_n * lin_density / len(ring)
     for r in ring:
-        mass[r] += 4.0 * design.L_n * lin_density / len(ring)
+        if r < n_net:
+            mass[r] += ring_mass
 
     # other threads (corner threads, tether), each acting through a body's two slots
     links = []
@@ -225,8 +230,6 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     # corner masses and corner threads
     lc = cfg.corner_thread_meshes * l0
-    cnodes = corner_nodes(cfg)
-    corner_bodies = np.arange(i_corner0, i_corner0 + 4)
     rest = []
     for k, (node, body) in enumerate(zip(cnodes, corner_bodies)):
         sx, sy = CORNER_SIGNS[k]
@@ -238,6 +241,9 @@ def build_scenario(design: Design, actions: Actions, world: World,
         add_link(node, body, 0, 0)
         rest.append(lc)
     n_net_links = len(links)
+    for r in ring:
+        if r >= n_net:
+            mass[r] += ring_mass
 
     # main tether: net centre -> lumped masses -> winch on the chaser
     centre = grid_index(n // 2, n // 2, n)
@@ -247,8 +253,12 @@ def build_scenario(design: Design, actions: Actions, world: World,
         # along the chain: slot 0 toward the net, slot 1 toward the winch
         tether_links.append(add_link(a, b, 1 if q > 0 else 0, 0))
         rest.append(0.0)  # set when the winch locks
+    # the main tether's thread (its own radius, or the net's)
+    r_tether = cfg.tether_radius if cfg.tether_radius > 0 else design.r_n
+    tether_lin_density = cfg.density * math.pi * r_tether**2
+    tether_EA = cfg.young_modulus * math.pi * r_tether**2
     # placeholder masses (set when the winch locks; kinematic until then)
-    mass[i_tether0:i_chaser] = lin_density * 1.0
+    mass[i_tether0:i_chaser] = tether_lin_density * 1.0
     contact[i_tether0:i_chaser] = 0
     mass[i_chaser] = cfg.chaser_mass
     contact[i_chaser] = 0
@@ -258,15 +268,48 @@ def build_scenario(design: Design, actions: Actions, world: World,
     rest = np.array(rest, dtype=float)
     k = np.zeros(len(links))
     k[:n_net_links] = EA / rest[:n_net_links]
-    damping = thread_damping(k, mass[links[:, 0]], mass[links[:, 1]], cfg.damping_ratio)
     active = np.zeros(len(links), dtype=np.uint8)
     active[:n_net_links] = 1
     k_grid = EA / l0
     gi = np.arange(n * n).reshape(n, n)
     grid_kh = np.full((n, n - 1), k_grid)
     grid_kv = np.full((n - 1, n), k_grid)
-    grid_ch = thread_damping(grid_kh, mass[gi[:, :-1]], mass[gi[:, 1:]], cfg.damping_ratio)
-    grid_cv = thread_damping(grid_kv, mass[gi[:-1, :]], mass[gi[1:, :]], cfg.damping_ratio)
+    zeta = cfg.damping_ratio
+    if cfg.thread_damping == "element":
+        omega_1 = 0.0
+        damping = materials.element_damping(k, mass[links[:, 0]], mass[links[:, 1]], zeta)
+        grid_ch = materials.element_damping(grid_kh, mass[gi[:, :-1]], mass[gi[:, 1:]], zeta)
+        grid_cv = materials.element_damping(grid_kv, mass[gi[:-1, :]], mass[gi[1:, :]], zeta)
+    else:
+        omega_1 = materials.first_axial_frequency(mass[:n_net].reshape(n, n), k_grid)
+        damping = materials.stiffness_damping(k, zeta, omega_1)
+        grid_ch = materials.stiffness_damping(grid_kh, zeta, omega_1)
+        grid_cv = materials.stiffness_damping(grid_kv, zeta, omega_1)
+
+    # contact spheres and their stiffness and damping
+    tether_bodies = slice(i_tether0, i_chaser)
+    if cfg.contact_radius == "density":
+        radius[:n_net] = materials.sphere_radius(mass[:n_net], cfg.density)
+        radius[corner_bodies] = materials.sphere_radius(mass[corner_bodies], cfg.corner_mass_density)
+        radius[tether_bodies] = r_tether
+    e_net = materials.effective_modulus(cfg.young_modulus, cfg.poisson_ratio,
+                                        cfg.target_young_modulus, cfg.target_poisson_ratio)
+    e_corner = materials.effective_modulus(cfg.target_young_modulus, cfg.target_poisson_ratio,
+                                           cfg.target_young_modulus, cfg.target_poisson_ratio)
+    if cfg.contact_model == "frequency":
+        k_contact = mass * cfg.contact_frequency**2
+        c_contact = 2.0 * cfg.contact_damping_ratio * mass * cfg.contact_frequency
+    else:
+        k_contact = materials.hertz_linear_stiffness(radius, e_net, cfg.hertz_penetration,
+                                                     cfg.hertz_divisor)
+        k_contact[corner_bodies] = materials.hertz_linear_stiffness(
+            radius[corner_bodies], e_corner, cfg.hertz_penetration, cfg.hertz_divisor)
+        c_contact = 2.0 * cfg.contact_damping_ratio * np.sqrt(k_contact * mass)
+    k_contact[~contact.astype(bool)] = 0.0
+    c_contact[~contact.astype(bool)] = 0.0
+    if cfg.contact_model == "hertz":   # the tether's masses collide once the winch locks
+        k_contact[tether_bodies] = materials.hertz_linear_stiffness(
+            radius[tether_bodies], e_net, cfg.hertz_penetration, cfg.hertz_divisor)
 
     w = 1.0 / mass
     w[i_tether0:i_chaser] = 0.0  # kinematic while the winch pays out
@@ -278,14 +321,19 @@ def build_scenario(design: Design, actions: Actions, world: World,
     params = kn.Params(
         dt=0.0, close_force=cfg.closing_force_factor * design.m_c * design.L_n,
         close_threshold=float(actions.closing_displacement), lock_dist=cfg.lock_distance,
-        mu=cfg.friction, omega_contact=cfg.contact_frequency,
+        mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
+        contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
+        omega_contact=cfg.contact_frequency,
         zeta_contact=cfg.contact_damping_ratio, tgt_inv_mass=1.0 / cfg.target.mass,
-        tgt_bound=target.bounding_radius, tether_lin_density=lin_density, tether_EA=EA,
-        zeta_thread=cfg.damping_ratio)
+        tgt_bound=target.bounding_radius, tether_lin_density=tether_lin_density,
+        tether_EA=tether_EA, zeta_thread=cfg.damping_ratio,
+        thread_damping=kn.THREAD_DAMPING_MODELS.index(cfg.thread_damping), omega_1=omega_1,
+        lock_model=kn.LOCK_MODELS.index(cfg.lock_model))
     net_nodes = np.arange(n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,
-        bodies=kn.Bodies(x=x, v=v, w=w, mass=mass, radius=radius, contact_mask=contact),
+        bodies=kn.Bodies(x=x, v=v, w=w, mass=mass, radius=radius, contact_mask=contact,
+                         k_contact=k_contact, c_contact=c_contact),
         grid=kn.Grid(n=n, rest=l0, kh=grid_kh, ch=grid_ch, kv=grid_kv, cv=grid_cv),
         links=kn.Links(pairs=links, rest=rest, k=k, c=damping, active=active, node_links=slots,
                        node_sign=signs),
@@ -301,12 +349,14 @@ def build_scenario(design: Design, actions: Actions, world: World,
             quat=rotation_quaternion(world.rotation, world.rotation_axis),
             vel=np.zeros(3), omega=np.zeros(3), inertia=target.inertia.copy(),
             cyl=target.cylinder(), verts=verts, offsets=offsets),
-        params=params, events=kn.new_events(), dt=0.0, stable_step=0.0,
+        params=params, events=kn.new_events(),
+        solver=kn.new_solver(n, len(links), nb, len(ring_pairs)), dt=0.0, stable_step=0.0,
         net_nodes=net_nodes, corner_bodies=corner_bodies,
     )
     # the integration step: a fraction of the stable step of every thread (grid and other)
-    pairs, _, k_all, _, active_all = sc.threads()
-    _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb)
+    pairs, _, k_all, c_all, active_all = sc.threads()
+    _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb, c=c_all,
+                                       k_contact=k_contact, c_contact=c_contact)
     sc.dt = cfg.step_for(sc.stable_step)
     sc.set_params(dt=sc.dt)
     return sc

@@ -1,10 +1,12 @@
 """Contact of the lumped bodies (spheres) with the target.
 
-Normal: Kelvin-Voigt penalty that never pulls, F_n = k_i delta - c_i v_n > 0 with
-k_i = m_i omega_c^2, c_i = 2 zeta_c m_i omega_c per body (a contact natural frequency: an
-impact at v sinks about v / omega_c whatever the body's mass).  Friction: regularised
-Coulomb, magnitude min(mu F_n, m |v_t| / dt) against the tangential slip (a scaled box
-that cannot reverse the slip within a step).  Equal and opposite forces, and their
+Normal: Kelvin-Voigt penalty that never pulls, F_n = k_i delta - c_i v_n > 0.  Contact
+model "frequency": k_i = m_i omega_c^2, c_i = 2 zeta_c m_i omega_c per body (a contact
+natural frequency: an impact at v sinks about v / omega_c whatever the body's mass);
+"hertz": the body's own k_i, c_i (Bodies.k_contact, c_contact, set at build from its
+sphere's radius and materials).  Friction: regularised Coulomb against the tangential
+slip: the force that stops the slip within the step, m |v_t| / dt, while it is at most
+mu_static F_n (sticking), else mu F_n (sliding).  Equal and opposite forces, and their
 torques, act on the target.  Forces in N, torques in N m.
 """
 from __future__ import annotations
@@ -13,6 +15,7 @@ import numpy as np
 from numba import njit
 
 from .geometry import local_sdf
+from .state import CONTACT_FREQUENCY
 
 
 @njit(cache=True, error_model='numpy')
@@ -66,7 +69,10 @@ def contact_forces(wk, bodies, target, prm, diag):
         vry = VY[i] - (tgt_vel[1] + oz * rx - ox * rz)
         vrz = VZ[i] - (tgt_vel[2] + ox * ry - oy * rx)
         vn = vrx * nx + vry * ny + vrz * nz
-        Fn = mass[i] * (k_c_unit * delta - c_c_unit * vn)
+        if prm.contact_model == CONTACT_FREQUENCY:
+            Fn = mass[i] * (k_c_unit * delta - c_c_unit * vn)
+        else:
+            Fn = bodies.k_contact[i] * delta - bodies.c_contact[i] * vn
         if Fn <= 0.0:  # a contact never pulls
             continue
         n_contacts += 1
@@ -78,10 +84,8 @@ def contact_forces(wk, bodies, target, prm, diag):
         tvz = vrz - vn * nz
         vt = np.sqrt(tvx * tvx + tvy * tvy + tvz * tvz)
         if vt > 1e-12 and mu > 0.0:
-            Ft = mu * Fn
             stop = mass[i] * vt / dt
-            if stop < Ft:
-                Ft = stop
+            Ft = stop if stop < prm.mu_static * Fn else mu * Fn
             fx -= Ft * tvx / vt
             fy -= Ft * tvy / vt
             fz -= Ft * tvz / vt

@@ -1,23 +1,30 @@
 """The drawstring: constant closing force F_c along each adjacent pair of ring bodies once
 closing is active, and the locks of pairs that came closer than the lock distance.
 
-Lock model "ratchet": a locked pair is a one-sided distance joint whose maximum distance
-starts at the lock distance and only shrinks toward 0 (positions projected, separating
-velocity removed, momentum kept).  Forces in N, lengths in m.
+Lock model "ratchet": the force pulls every pair; a locked pair is a one-sided distance
+joint whose maximum distance starts at the lock distance and only shrinks toward 0
+(positions projected, separating velocity removed, momentum kept).
+Lock model "latch" (the reference implementation): the force pulls a pair only while it is
+at least the lock distance apart; a pair that came closer is latched for good (it counts
+as locked) but held by nothing, and the force resumes if it drifts apart again.
+Forces in N, lengths in m.
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
+from .state import LOCK_RATCHET
+
 #: Jacobi passes of the lock projection per step
 LOCK_PASSES = 4
 
 
 @njit(cache=True, error_model='numpy')
-def closing_forces(wk, ring, close_force):
-    """Add F_c along every drawstring pair to wk.FX.. (a ring body in two pairs gets both
-    pulls summed first, commutatively, so mirror symmetry is kept)."""
+def closing_forces(wk, ring, close_force, lock_model, lock_dist):
+    """Add F_c along the drawstring pairs it pulls (every pair; under the latch model only
+    those at least ``lock_dist`` apart) to wk.FX.. (a ring body in two pairs gets both pulls
+    summed first, commutatively, so mirror symmetry is kept)."""
     X, Y, Z = wk.X, wk.Y, wk.Z
     pair_f = wk.pair_f
     acc = wk.acc
@@ -30,7 +37,7 @@ def closing_forces(wk, ring, close_force):
         dy = Y[b] - Y[a]
         dz = Z[b] - Z[a]
         d = np.sqrt(dx * dx + dy * dy + dz * dz)
-        if d > 1e-12:
+        if d > 1e-12 and (lock_model == LOCK_RATCHET or d >= lock_dist):
             s_ = close_force / d
             pair_f[p, 0] = s_ * dx
             pair_f[p, 1] = s_ * dy
@@ -56,8 +63,8 @@ def closing_forces(wk, ring, close_force):
 
 @njit(cache=True, error_model='numpy')
 def update_locks(wk, ring, lock_dist, step):
-    """Lock every pair closer than ``lock_dist``; a locked pair's maximum distance follows
-    it down."""
+    """Lock every pair closer than ``lock_dist``; a locked pair's maximum distance (the
+    ratchet's limit; under the latch model only a record) follows it down."""
     X, Y, Z = wk.X, wk.Y, wk.Z
     for p in range(ring.pairs.shape[0]):
         a = ring.pairs[p, 0]

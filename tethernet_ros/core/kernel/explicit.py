@@ -17,7 +17,8 @@ from .contact import contact_forces
 from .drawstring import closing_forces, project_locks, update_locks
 from .geometry import quat_to_matrix_into
 from .rigid import integrate_target
-from .state import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
+from .state import (E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED,
+                    LOCK_RATCHET)
 from .tether import lock_tether, pay_out_tether
 from .threads import gather_thread_forces, grid_thread_forces, link_forces
 from .work import make_work, store_work
@@ -84,7 +85,7 @@ def advance(n_steps, bodies, grid, links, ring, tether, target, prm, ev, diag):
         gather_thread_forces(wk, grid, links)
         # 2. drawstring closing force
         if ev[E_CLOSING_ACTIVE] == 1:
-            closing_forces(wk, ring, prm.close_force)
+            closing_forces(wk, ring, prm.close_force, prm.lock_model, prm.lock_dist)
         # 3. contact with the target
         fx_t, fy_t, fz_t, tx_t, ty_t, tz_t = contact_forces(wk, bodies, target, prm, diag)
         # 4. integrate the bodies; the paid-out tether follows the winch and net centre
@@ -94,7 +95,7 @@ def advance(n_steps, bodies, grid, links, ring, tether, target, prm, ev, diag):
         # 5. integrate the target (free rigid body)
         integrate_target(target, wk.R, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt, prm.tgt_inv_mass)
         # 6. drawstring locks: one-sided distance joints
-        if ev[E_CLOSING_ACTIVE] == 1:
+        if ev[E_CLOSING_ACTIVE] == 1 and prm.lock_model == LOCK_RATCHET:
             project_locks(wk, bodies.w, ring)
         ev[E_STEP] += 1
         # 7. events: closing trigger, winch lock, drawstring locks

@@ -16,8 +16,9 @@ import numpy as np
 
 #: Per-body arrays.  x, v (N, 3): position (m), velocity (m/s); w (N,): inverse mass
 #: (1/kg, 0 for a kinematic body); mass (N,) (kg); radius (N,): contact sphere radius (m);
-#: contact_mask (N,) uint8: 1 where the body collides with the target.
-Bodies = namedtuple("Bodies", "x v w mass radius contact_mask")
+#: contact_mask (N,) uint8: 1 where the body collides with the target; k_contact,
+#: c_contact (N,): the body's contact stiffness (N/m) and damping (N s/m) with the target.
+Bodies = namedtuple("Bodies", "x v w mass radius contact_mask k_contact c_contact")
 
 #: The net's grid threads, implicit in the layout: x-threads (i, j)-(i, j+1) with stiffness
 #: kh and damping ch ((n, n - 1), N/m and N s/m), y-threads (i, j)-(i+1, j) with kv, cv
@@ -47,13 +48,24 @@ TargetBody = namedtuple("TargetBody", "pos quat vel omega inertia cyl verts offs
 
 #: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair;
 #: close_threshold: z(net CoM) - z(target CoM) that starts closing (m); lock_dist (m);
-#: mu: Coulomb friction coefficient; omega_contact (rad/s), zeta_contact: per-body contact
-#: natural frequency and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
+#: mu, mu_static: kinetic and static Coulomb friction coefficients; contact_model (index
+#: into CONTACT_MODELS); omega_contact (rad/s), zeta_contact: contact natural frequency
+#: ("frequency" model) and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
 #: sphere about the target's CoM enclosing it (m); tether_lin_density (kg/m), tether_EA (N),
-#: zeta_thread: for the tether segments made when the winch locks.
-Params = namedtuple("Params", "dt close_force close_threshold lock_dist mu omega_contact "
-                              "zeta_contact tgt_inv_mass tgt_bound tether_lin_density tether_EA "
-                              "zeta_thread")
+#: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
+#: tether segments made when the winch locks; lock_model: index into LOCK_MODELS.
+Params = namedtuple("Params", "dt close_force close_threshold lock_dist mu mu_static "
+                              "contact_model omega_contact zeta_contact tgt_inv_mass tgt_bound "
+                              "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
+                              "lock_model")
+
+#: Modelling choices held as small integers in Params (the index of the name).
+CONTACT_MODELS = ("frequency", "hertz")
+THREAD_DAMPING_MODELS = ("element", "stiffness")
+LOCK_MODELS = ("ratchet", "latch")
+CONTACT_FREQUENCY, CONTACT_HERTZ = 0, 1
+DAMPING_ELEMENT, DAMPING_STIFFNESS = 0, 1
+LOCK_RATCHET, LOCK_LATCH = 0, 1
 
 #: Integer episode state, one int64 array; these name its slots.
 E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
@@ -62,6 +74,20 @@ N_EV = 5
 #: Diagnostics accumulated by the kernel: contact_count (1,) body-steps in contact,
 #: max_penetration (1,) deepest penetration seen (m).
 Diagnostics = namedtuple("Diagnostics", "contact_count max_penetration")
+
+#: The implicit method's accumulated impulses (N s) of the last step, its warm start:
+#: grid_ph (n, n - 1) x-threads, grid_pv (n - 1, n) y-threads and link_p (M,) other threads
+#: (negative: tension), contact_pn (N,) normal (>= 0) and contact_pt (N, 3) friction
+#: impulse on each body from the target, lock_p (P,) drawstring locks.
+Solver = namedtuple("Solver", "grid_ph grid_pv link_p contact_pn contact_pt lock_p")
+
+
+def new_solver(n_grid: int, n_links: int, n_bodies: int, n_pairs: int) -> Solver:
+    return Solver(grid_ph=np.zeros((n_grid, max(n_grid - 1, 0))),
+                  grid_pv=np.zeros((max(n_grid - 1, 0), n_grid)), link_p=np.zeros(n_links),
+                  contact_pn=np.zeros(n_bodies), contact_pt=np.zeros((n_bodies, 3)),
+                  lock_p=np.zeros(n_pairs))
+
 
 #: slots of Links.node_links: the (non-grid) threads acting on a body
 N_SLOTS = 2

@@ -7,6 +7,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .state import DAMPING_ELEMENT
+
 
 @njit(cache=True, error_model='numpy')
 def pay_out_tether(wk, tether):
@@ -48,11 +50,15 @@ def lock_tether(wk, bodies, links, tether, prm):
         mass[t] = prm.tether_lin_density * links.rest[tether.links[0]]
         bodies.w[t] = 1.0 / mass[t]
         bodies.contact_mask[t] = 1
+        bodies.c_contact[t] = 2.0 * prm.zeta_contact * np.sqrt(bodies.k_contact[t] * mass[t])
     for k in range(tether.links.shape[0]):
         m = tether.links[k]
         a = links.pairs[m, 0]
         b = links.pairs[m, 1]
         kk = prm.tether_EA / links.rest[m]
         links.k[m] = kk
-        meff = (mass[a] * mass[b]) / (mass[a] + mass[b])
-        links.c[m] = 2.0 * prm.zeta_thread * np.sqrt(kk * meff)
+        if prm.thread_damping == DAMPING_ELEMENT:
+            meff = (mass[a] * mass[b]) / (mass[a] + mass[b])
+            links.c[m] = 2.0 * prm.zeta_thread * np.sqrt(kk * meff)
+        else:
+            links.c[m] = 2.0 * prm.zeta_thread * kk / prm.omega_1
