@@ -1,27 +1,23 @@
 """Reliability-constrained Bayesian optimiser (SPEC section 7), simulator-independent.
 
 See :mod:`optimizer.bayesopt` for the method and :mod:`optimizer.testproblems` for
-standard constrained test problems with known optima.
+standard constrained test problems with known optima.  The names below are loaded on first
+use, so that importing a light module of the package (e.g. :mod:`optimizer.jsonio`) does not
+load the surrogate's libraries.
 """
+from importlib import import_module
 
-from .bayesopt import (
-    ConstrainedBayesOpt,
-    Observation,
-    OptimizeResult,
-    binomial_observation,
-    expected_improvement_plus,
-    minimize,
-)
-from .checkpoint import CheckpointError, load_checkpoint, save_checkpoint
+_HOMES = {
+    "ConstrainedBayesOpt": "bayesopt", "Observation": "bayesopt", "OptimizeResult": "bayesopt",
+    "binomial_observation": "bayesopt", "expected_improvement_plus": "bayesopt",
+    "minimize": "bayesopt", "CheckpointError": "checkpoint", "load_checkpoint": "checkpoint",
+    "save_checkpoint": "checkpoint",
+}
 
-__all__ = [
-    "ConstrainedBayesOpt",
-    "Observation",
-    "OptimizeResult",
-    "binomial_observation",
-    "expected_improvement_plus",
-    "minimize",
-    "CheckpointError",
-    "load_checkpoint",
-    "save_checkpoint",
-]
+__all__ = list(_HOMES)
+
+
+def __getattr__(name):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'optimizer' has no attribute {name!r}")
+    return getattr(import_module(f".{_HOMES[name]}", __name__), name)

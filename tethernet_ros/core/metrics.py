@@ -1,6 +1,8 @@
 """Capture metrics of SPEC section 4: the Capture Quality Index, locked pairs, success.
 
-This is the one CQI function of the project (library, workers, monitor node, replay).
+This is the one CQI function of the project (library, workers, monitor node, replay), and
+the one home of the success rule (:func:`capture_verdict`) and of the failure categories
+that Monte Carlo summaries count (:func:`failure_category`).
 """
 from __future__ import annotations
 
@@ -74,6 +76,17 @@ def capture_quality_index(net_positions: np.ndarray, net_masses: np.ndarray,
                     hull_volume=vol, hull_area=area, com_distance=q)
 
 
+def cqi_fails(settled_cqi: float, max_cqi: float = 2.0) -> bool:
+    """First test of the success rule: the settled CQI fails unless I*_CQ <= max_cqi (a NaN
+    CQI fails)."""
+    return not (settled_cqi <= max_cqi)
+
+
+def pairs_fail(locked_pairs: int, min_locked_pairs: int = 10) -> bool:
+    """Second test of the success rule: n_L fails when n_L < min_locked_pairs."""
+    return locked_pairs < min_locked_pairs
+
+
 def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
                     min_locked_pairs: int = 10) -> tuple[bool, str]:
     """Success rule of SPEC section 4: I*_CQ <= max_cqi and n_L >= min_locked_pairs.
@@ -81,11 +94,50 @@ def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
     if not math.isfinite(settled_cqi):
         return False, "settled CQI is not finite"
     reasons = []
-    if settled_cqi > max_cqi:
+    if cqi_fails(settled_cqi, max_cqi):
         reasons.append(f"settled CQI {settled_cqi:.3f} > {max_cqi:g}")
-    if locked_pairs < min_locked_pairs:
+    if pairs_fail(locked_pairs, min_locked_pairs):
         reasons.append(f"{locked_pairs} locked pairs < {min_locked_pairs}")
     return (not reasons), "; ".join(reasons)
+
+
+def failure_category(reason: str, settled_cqi: float | None = None,
+                     locked_pairs: int | None = None, closing_time: float | None = None,
+                     max_cqi: float = 2.0, min_locked_pairs: int = 10) -> str:
+    """Group a failed episode into a category for counting ('' when ``reason`` is empty).
+
+    Categories: 'worker error', 'diverged', 'closing never triggered', 'settled CQI > 2',
+    'locked pairs < 10', 'settled CQI > 2 and locked pairs < 10' (thresholds as given),
+    'other'.  The numbers (settled CQI, n_L, closing time; NaN closing time = never
+    triggered) decide where given, by the tests of :func:`capture_verdict`; otherwise the
+    reason text does.
+    """
+    if not reason:
+        return ""
+    r = reason.lower()
+    if r.startswith("worker error"):
+        return "worker error"
+    if "diverged" in r:
+        return "diverged"
+    if closing_time is not None or settled_cqi is not None:
+        if closing_time is not None and not math.isfinite(closing_time):
+            return "closing never triggered"
+        bad_cqi = settled_cqi is not None and cqi_fails(settled_cqi, max_cqi)
+        bad_pairs = locked_pairs is not None and pairs_fail(locked_pairs, min_locked_pairs)
+    else:
+        if "closing never triggered" in r:
+            return "closing never triggered"
+        bad_cqi = ("cqi" in r and ">" in r) or "not finite" in r
+        bad_pairs = "locked pairs" in r
+    cqi_label = f"settled CQI > {max_cqi:g}"
+    pairs_label = f"locked pairs < {min_locked_pairs}"
+    if bad_cqi and bad_pairs:
+        return f"{cqi_label} and {pairs_label}"
+    if bad_cqi:
+        return cqi_label
+    if bad_pairs:
+        return pairs_label
+    return "other"
 
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float]:

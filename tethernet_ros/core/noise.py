@@ -18,6 +18,10 @@ import numpy as np
 #: Noise sources whose spread can be scaled (sensitivity study).
 NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing")
 
+#: The NoiseModel fields that hold a spread (the actuator node takes them as parameters).
+SPREAD_FIELDS: tuple[str, ...] = ("sigma_distance", "sigma_orientation_deg", "sigma_speed",
+                                  "sigma_polar_deg", "azimuth_range_deg", "sigma_closing")
+
 #: Corner order used everywhere: signs (s_x, s_y) of each corner's launch velocity.
 CORNER_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
@@ -75,8 +79,7 @@ class NoiseModel:
     scales: dict = field(default_factory=lambda: {s: 1.0 for s in NOISE_SOURCES})
 
     def __post_init__(self):
-        for name in ("sigma_distance", "sigma_orientation_deg", "sigma_speed",
-                     "sigma_polar_deg", "azimuth_range_deg", "sigma_closing"):
+        for name in SPREAD_FIELDS:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise NoiseError(f"noise field '{name}': got {v!r}; must be a finite number >= 0")
@@ -91,6 +94,10 @@ class NoiseModel:
                 raise NoiseError(f"noise field 'scales.{k}': got {v!r}; must be in [0, 100]")
             scales[k] = float(v)
         object.__setattr__(self, "scales", scales)
+
+    def spreads(self) -> dict:
+        """The spreads by field name (:data:`SPREAD_FIELDS`), unscaled."""
+        return {k: getattr(self, k) for k in SPREAD_FIELDS}
 
     def with_scales(self, **scales: float) -> "NoiseModel":
         merged = dict(self.scales)

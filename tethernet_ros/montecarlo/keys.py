@@ -1,0 +1,40 @@
+"""Run keys: the identity of the episodes a (design, noise model, config) produces.
+
+A results-file record carries the key of its run; a record is reused only under the same
+key, so results of another design, noise model, configuration, seed mapping or simulator
+source are never mixed in.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict
+from functools import lru_cache
+from pathlib import Path
+
+from ..core.config import SimConfig
+from ..core.design import Design
+from ..core.noise import NoiseModel
+from .seeds import SEED_STRIDE
+
+
+@lru_cache(maxsize=1)
+def model_version() -> str:
+    """Hash of the simulator core's source (tethernet_ros/core/**/*.py), so that results of
+    a changed model are never reused.  Computed once per process."""
+    from .. import core as core_pkg
+
+    h = hashlib.sha256()
+    core = Path(core_pkg.__file__).parent
+    for p in sorted(core.rglob("*.py")):
+        h.update(p.relative_to(core).as_posix().encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def run_key(design: Design, noise_model: NoiseModel, config: SimConfig) -> str:
+    """Identity of the episodes a (design, noise model, config) produces for a seed."""
+    ident = {"design": design.to_dict(), "noise": asdict(noise_model), "config": config.to_dict(),
+             "seed_map": f"b*{SEED_STRIDE}+i", "model": model_version()}
+    blob = json.dumps(ident, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
