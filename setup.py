@@ -32,10 +32,10 @@ setup(
     entry_points={
         "console_scripts": [
             "tethernet = tethernet_ros.cli:main",
-            "sim_node = tethernet_ros.nodes.sim_node:main",
-            "monitor_node = tethernet_ros.nodes.monitor_node:main",
-            "actuator_node = tethernet_ros.nodes.actuator_node:main",
-            "capture_node = tethernet_ros.nodes.capture_node:main",
+            "sim_node = tethernet_ros.ros.nodes.sim_node:main",
+            "monitor_node = tethernet_ros.ros.nodes.monitor_node:main",
+            "actuator_node = tethernet_ros.ros.nodes.actuator_node:main",
+            "capture_node = tethernet_ros.ros.nodes.capture_node:main",
         ],
     },
 )

@@ -30,8 +30,9 @@ from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.episode import run_episode  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
-from tethernet_ros.nodes.common import DEFAULTS, TOPICS  # noqa: E402
-from tethernet_ros.ros_capture import RosSuite  # noqa: E402
+from tethernet_ros.ros.names import TOPICS  # noqa: E402
+from tethernet_ros.ros.parameters import DEFAULTS  # noqa: E402
+from tethernet_ros.ros.suite import RosSuite  # noqa: E402
 
 
 def cpu_seconds(pid: int) -> float:

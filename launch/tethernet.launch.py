@@ -4,9 +4,9 @@
     ros2 service call /tethernet/run_capture tethernet_msgs/srv/RunCapture \
         "{design: {corner_mass: 2.05, net_side: 19.84, thread_radius: 0.001, \
           distance_to_target: 16.14, launch_velocity: [4.02, 2.60, 8.88], \
-          closing_displacement: 2.26}, seed: 3, noise: {distance_scale: 1.0, \
-          orientation_scale: 1.0, speed_scale: 1.0, polar_scale: 1.0, azimuth_scale: 1.0, \
-          closing_scale: 1.0, orientation_axis: z}, record_bag: true}"
+          closing_displacement: 2.26}, seed: 3, record_bag: true}"
+
+(noise settings left out: every scale 1.0, the nominal spreads; `nominal: true` for none)
 
 Starts sim_node, monitor_node, actuator_node and capture_node with the parameters of
 config/tethernet.yaml (installed to share/tethernet_ros/config).  Without a ROS install
@@ -20,6 +20,7 @@ from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
+# the node executables (tethernet_ros/ros/names.py NODES; setup.py console scripts)
 NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
 
 

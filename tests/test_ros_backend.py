@@ -1,4 +1,4 @@
-"""The ROS episode backend (tethernet_ros.ros_backend): Monte Carlo samples run through the
+"""The ROS episode backend (tethernet_ros.ros.backend): Monte Carlo samples run through the
 suite's RunCapture service, results read back from the recorded MCAP bags.
 
 Same per-sample results as the in-process backend for the same seeds (short scenario,
@@ -19,7 +19,7 @@ from tethernet_ros.bags import copy_truncated  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import REFERENCE_DESIGNS  # noqa: E402
 from tethernet_ros.montecarlo import InProcessBackend, evaluate  # noqa: E402
-from tethernet_ros.ros_backend import BagResultError, RosBackend, result_from_bag  # noqa: E402
+from tethernet_ros.ros.backend import BagResultError, RosBackend, result_from_bag  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(600)]
 

@@ -24,7 +24,7 @@ import yaml
 
 pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
 
-from tethernet_ros.bags import MARKER, read_bag  # noqa: E402
+from tethernet_ros.bags import MARKER, read_bag, type_hash  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.episode import run_episode  # noqa: E402
@@ -32,8 +32,9 @@ from tethernet_ros.core.metrics import capture_quality_index  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.core.scenario import (actions_for, grid_thread_pairs, scenario_for,  # noqa: E402
                                          world_for)
-from tethernet_ros.nodes.common import DEFAULTS, TOPICS  # noqa: E402
-from tethernet_ros.ros_capture import RosSuite  # noqa: E402
+from tethernet_ros.ros.names import TOPICS  # noqa: E402
+from tethernet_ros.ros.parameters import DEFAULTS  # noqa: E402
+from tethernet_ros.ros.suite import RosSuite  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
 
@@ -213,12 +214,12 @@ def test_bag_with_mcap_ros2_and_metadata(captured):
                 assert len(decoded.positions) == 3 * (decoded.num_net_nodes + decoded.num_corner_masses
                                                       + decoded.num_tether_nodes)
             assert "offered_qos_profiles" in channel.metadata
-            assert channel.metadata.get("topic_type_hash", "").startswith("RIHS01_")
     listed = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
     assert counts == listed
     assert sum(counts.values()) == meta["message_count"]
     for t in meta["topics_with_message_count"]:
-        assert t["topic_metadata"]["type_description_hash"].startswith("RIHS01_")
+        tm = t["topic_metadata"]
+        assert tm["type_description_hash"] == type_hash(tm["type"])   # rosidl's (test_ros_bags)
 
 
 # --- replay ------------------------------------------------------------------------------------
@@ -306,6 +307,32 @@ def test_bad_requests_are_refused_and_the_node_keeps_serving(suite, reference):
     assert bag is None
     assert_same_result(result, nominal)
     assert result.seed is None
+
+
+def test_request_without_noise_settings_gets_the_nominal_spreads(suite):
+    """A request that gives a design and a seed and leaves the noise settings out (the
+    message defaults: every scale 1.0) runs with the nominal spreads: the library's
+    episode of that seed, bit for bit, not a noise-free one."""
+    from tethernet_msgs.srv import RunCapture
+
+    from tethernet_ros.ros.conversions import design_msg
+
+    seed = 5
+    req = RunCapture.Request()
+    req.design = design_msg(DESIGN)
+    req.seed = seed
+    resp = suite.call(req, timeout=300)
+    assert resp.accepted and resp.error == "", resp.error
+    assert resp.bag_path == ""                            # record_bag left out: false
+    ref = run_episode(DESIGN, NoiseModel().sample(seed), CONFIG, record_trace=False)
+    r = resp.result
+    assert r.seed == seed and not r.nominal
+    assert r.settled_cqi == ref.settled_cqi and r.locked_pairs == ref.locked_pairs
+    assert r.completion_time == ref.completion_time and r.closing_time == ref.closing_time
+    assert r.success == ref.success and r.failure_reason == ref.failure_reason
+    noise_free = run_episode(DESIGN, NoiseModel().with_scales(
+        **{k: 0.0 for k in NoiseModel().scales}).sample(seed), CONFIG, record_trace=False)
+    assert (r.closing_time, r.settled_cqi) != (noise_free.closing_time, noise_free.settled_cqi)
 
 
 def test_sim_node_killed_mid_episode(suite):

@@ -43,7 +43,7 @@ class StateMirror:
         return self.sim.dt
 
     def load(self, st) -> None:
-        """Load a :class:`~tethernet_ros.nodes.convert.StateArrays` into the mirror."""
+        """Load a :class:`~tethernet_ros.ros.state.StateArrays` into the mirror."""
         s = self.sim.s
         b, t, ring = s.bodies, s.target_body, s.drawstring
         if st.positions.shape != b.x.shape or st.velocities.shape != b.v.shape:

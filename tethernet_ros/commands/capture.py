@@ -43,7 +43,7 @@ def run(args) -> int:
     t0 = time.perf_counter()
     bag_path = None
     if args.via == "ros":
-        from ..ros_capture import capture_via_ros
+        from ..ros.suite import capture_via_ros
 
         result, bag_path = capture_via_ros(design, seed=args.seed, noise_model=model, config=config,
                                            record_bag=not args.no_bag, bag_name=args.bag_name)

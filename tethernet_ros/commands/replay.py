@@ -46,8 +46,10 @@ def replay(path) -> dict:
     is no bag at ``path``."""
     from ..bags import read_bag
     from ..monitoring import StateMirror
-    from ..nodes import convert
-    from ..nodes.common import TOPICS
+    from ..ros import conversions as conv
+    from ..ros.names import TOPICS
+    from ..ros.results import compare_results
+    from ..ros.state import stamp_key
 
     contents = read_bag(path, types={SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT})
     problems = list(contents.problems)
@@ -74,11 +76,11 @@ def replay(path) -> dict:
         problems.append(f"cannot rebuild the scenario: no {', '.join(missing)} in the bag")
     else:
         try:
-            setup = convert.setup_from_msg(setups[0])
+            setup = conv.setup_from_msg(setups[0])
             key = setup.stamp
-            launch = next((m for m in launches if convert.same_stamp(m.header, key)), launches[0])
-            closing = next((m for m in closings if convert.same_stamp(m.header, key)), closings[0])
-            actions, world = convert.actions_world_from_msgs(launch, closing)
+            launch = next((m for m in launches if stamp_key(m.header) == key), launches[0])
+            closing = next((m for m in closings if stamp_key(m.header) == key), closings[0])
+            actions, world = conv.commands_from_msgs(launch, closing)
             mirror = StateMirror(setup.design, actions, world, setup.config)
             report.update(episode_id=setup.episode_id, design=setup.design.to_dict(),
                           seed=setup.seed, config_overrides=setups[0].sim_config_json)
@@ -91,7 +93,7 @@ def replay(path) -> dict:
         compared, max_diff, n_l_mismatch = 0, 0.0, 0
         for msg in states:
             try:
-                mirror.load(convert.state_from_msg(msg))
+                mirror.load(conv.net_state_from_msg(msg))
             except Exception as exc:  # noqa: BLE001
                 problems.append(f"state at step {msg.step}: {exc}")
                 continue
@@ -124,7 +126,7 @@ def replay(path) -> dict:
             if not recs:
                 problems.append(f"no recorded {'EpisodeResult' if key == 'result' else 'monitor verdict'}")
             continue
-        diff = convert.compare_results(recomputed, recs[-1])
+        diff = compare_results(recomputed, recs[-1])
         report[f"matches_{key}"] = not diff
         if diff:
             problems.append(f"recomputed verdict differs from the recorded {key}: {diff}")
@@ -144,7 +146,7 @@ def _fmt_result(r) -> str:
 
 def run(args) -> int:
     from ..bags import BagError
-    from ..cli import UserError
+    from ..errors import UserError
 
     try:
         report = replay(Path(args.bag))

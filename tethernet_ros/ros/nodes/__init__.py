@@ -1,4 +1,4 @@
-"""ROS 2 glue of the capture suite: thin nodes around the pure core.
+"""The four nodes of the capture suite, each a process with a ``main()``:
 
 sim_node       owns the scenario and the kernel; publishes states, target pose, /clock,
                markers and the simulation's EpisodeResult
@@ -9,6 +9,6 @@ actuator_node  turns an EpisodeSetup (nominal design, seed, noise settings) into
 capture_node   the RunCapture service: validates requests, broadcasts the EpisodeSetup,
                records the bag, waits for the result and the verdict
 
-Shared names, QoS and parameter defaults live in :mod:`.common`; message <-> core
-conversions in :mod:`.convert`.  Nothing here re-implements physics or metrics.
+``python -m tethernet_ros.ros.nodes.<node>``, the console script ``<node>``, or
+``ros2 run tethernet_ros <node>``.  Nothing here re-implements physics or metrics.
 """

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 from rclpy.node import Node
 
-from ..core.scenario import actions_for, world_for
-from . import common, convert
+from ...core.scenario import actions_for, world_for
+from .. import conversions as conv
+from ..parameters import declare, node_spreads, param, topic
+from ..qos import command_qos
+from ..runner import run_node, wait_for_subscribers
 
 NODE = "actuator_node"
-SPREADS = ("sigma_distance", "sigma_orientation_deg", "sigma_speed", "sigma_polar_deg",
-           "azimuth_range_deg", "sigma_closing")
 
 
 class ActuatorNode(Node):
@@ -27,44 +28,41 @@ class ActuatorNode(Node):
         from tethernet_msgs.msg import ClosingCommand, EpisodeSetup, LaunchCommand
 
         super().__init__(NODE)
-        common.declare(self, NODE)
-        t = lambda k: common.topic(self, k)  # noqa: E731
-        cq = common.command_qos()
+        declare(self, NODE)
+        t = lambda k: topic(self, k)  # noqa: E731
+        cq = command_qos()
         self.pub_launch = self.create_publisher(LaunchCommand, t("launch_command"), cq)
         self.pub_closing = self.create_publisher(ClosingCommand, t("closing_command"), cq)
         self.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
         self.get_logger().info("ready")
 
-    def spreads(self) -> dict:
-        return {k: float(common.param(self, f"noise.{k}")) for k in SPREADS}
-
     def on_setup(self, msg) -> None:
         log = self.get_logger()
         try:
-            setup = convert.setup_from_msg(msg)
-            model = setup.noise_model(self.spreads())
+            setup = conv.setup_from_msg(msg)
+            model = setup.noise_model(node_spreads(self))
             sample = None if model is None else model.sample(setup.seed)
             actions = actions_for(setup.design, sample)
             world = world_for(setup.design, sample)
         except Exception as exc:  # noqa: BLE001 - logged; the episode never starts
             log.error(f"episode {msg.episode_id!r} rejected: {exc}")
             return
-        frame = common.param(self, "frame_id")
-        n = int(common.param(self, "min_command_subscribers"))
-        timeout = float(common.param(self, "match_timeout"))
+        frame = param(self, "frame_id")
+        n = int(param(self, "min_command_subscribers"))
+        timeout = float(param(self, "match_timeout"))
         for pub in (self.pub_launch, self.pub_closing):
-            if not common.wait_for_subscribers(pub, n, timeout):
+            if not wait_for_subscribers(pub, n, timeout, self.context):
                 log.warning(f"{pub.topic_name}: {pub.get_subscription_count()} subscriber(s), "
                             f"expected {n}")
-        self.pub_launch.publish(convert.launch_command_msg(actions, world, setup.seed,
+        self.pub_launch.publish(conv.launch_command_msg(actions, world, setup.seed,
                                                            setup.stamp, frame))
-        self.pub_closing.publish(convert.closing_command_msg(actions, setup.stamp, frame))
+        self.pub_closing.publish(conv.closing_command_msg(actions, setup.stamp, frame))
         log.info(f"episode {setup.episode_id!r}: commands sent "
                  f"({'nominal' if sample is None else f'seed {setup.seed}'})")
 
 
 def main(args=None) -> int:
-    return common.run_node(ActuatorNode, args)
+    return run_node(ActuatorNode, args)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Run captures through the ROS 2 node suite, with the nodes as separate processes.
 
 :class:`RosSuite` starts ``sim_node``, ``monitor_node``, ``actuator_node`` and
-``capture_node`` (``python -m tethernet_ros.nodes.<name>``), talks to the RunCapture
+``capture_node`` (``python -m tethernet_ros.ros.nodes.<name>``), talks to the RunCapture
 service from a client node in this process, and stops the nodes (SIGINT, then SIGTERM,
 then SIGKILL).  :func:`capture_via_ros` is one capture on a fresh suite; it is what
 ``tethernet capture --via ros`` calls.
@@ -22,14 +22,16 @@ import tempfile
 import time
 from pathlib import Path
 
-from .cli import UserError
-from .core.config import SimConfig
-from .core.design import Design
-from .core.episode import EpisodeResult, EpisodeTrace
-from .core.noise import NoiseModel
+from ..core.config import SimConfig
+from ..core.design import Design
+from ..core.episode import EpisodeResult, EpisodeTrace
+from ..core.noise import NoiseModel
+from ..errors import UserError
+from . import conversions as conv
+from .names import NODES, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, SERVICE, TOPICS
+from .parameters import spreads_of
 
-NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
-PACKAGE_ROOT = Path(__file__).resolve().parent.parent
+PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 
 
 class RosCaptureError(UserError):
@@ -60,9 +62,8 @@ def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: 
     """ROS parameters (per node) that carry a SimConfig and a noise model's spreads."""
     import json
 
-    base = SimConfig().to_dict()
-    rest = {k: v for k, v in config.to_dict().items()
-            if v != base[k] and k not in ("settle_time", "horizon")}
+    rest = {k: v for k, v in conv.config_overrides(config).items()
+            if k not in ("settle_time", "horizon")}
     params = {
         "capture_node": {"settle_time": float(config.settle_time), "horizon": float(config.horizon),
                          "sim_config": json.dumps(rest, sort_keys=True),
@@ -72,9 +73,8 @@ def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: 
         "monitor_node": {},
     }
     if noise_model is not None:
-        for k in ("sigma_distance", "sigma_orientation_deg", "sigma_speed", "sigma_polar_deg",
-                  "azimuth_range_deg", "sigma_closing"):
-            params["actuator_node"][f"noise.{k}"] = float(getattr(noise_model, k))
+        params["actuator_node"].update(
+            {f"noise.{k}": v for k, v in spreads_of(noise_model).items()})
     for node, values in (extra or {}).items():
         params.setdefault(node, {}).update(values)
     return params
@@ -136,7 +136,7 @@ class RosSuite:
         overrides = self._write_params()
         defaults = default_params_file()
         for name in NODES:
-            cmd = [sys.executable, "-m", f"tethernet_ros.nodes.{name}", "--ros-args"]
+            cmd = [sys.executable, "-m", f"tethernet_ros.ros.nodes.{name}", "--ros-args"]
             if defaults is not None:
                 cmd += ["--params-file", str(defaults)]
             cmd += ["--params-file", str(overrides)]
@@ -166,9 +166,7 @@ class RosSuite:
         node's is (seen on a loaded CI machine: > 10 s apart)."""
         from std_srvs.srv import Trigger
 
-        from .nodes import common
-
-        client = self._node.create_client(Trigger, common.READY_SERVICE)
+        client = self._node.create_client(Trigger, READY_SERVICE)
         try:
             message = "no suite_ready service"
             while time.monotonic() <= deadline:
@@ -194,28 +192,26 @@ class RosSuite:
         from tethernet_msgs.msg import CaptureMetrics
         from tethernet_msgs.srv import RunCapture
 
-        from .nodes import common
+        from .qos import state_qos
 
         self._context = rclpy.Context()
         self._context.init(domain_id=int(self.env["ROS_DOMAIN_ID"]))
         self._node = rclpy.create_node(f"tethernet_client_{os.getpid()}", context=self._context)
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self._node)
-        self._client = self._node.create_client(RunCapture, common.SERVICE)
-        self._node.create_subscription(CaptureMetrics, common.TOPICS["metrics"],
-                                       self._metrics.append, common.state_qos(1000))
+        self._client = self._node.create_client(RunCapture, SERVICE)
+        self._node.create_subscription(CaptureMetrics, TOPICS["metrics"],
+                                       self._metrics.append, state_qos(1000))
 
     def missing(self) -> str:
         """'' if every suite topic has its subscribers and publishers in the graph."""
-        from .nodes import common
-
         out = []
-        for key, n in common.REQUIRED_SUBSCRIBERS.items():
-            if self._node.count_subscribers(common.TOPICS[key]) < n:
-                out.append(f"{common.TOPICS[key]} lacks subscribers")
-        for key in common.REQUIRED_PUBLISHERS:
-            if self._node.count_publishers(common.TOPICS[key]) < 1:
-                out.append(f"no publisher on {common.TOPICS[key]}")
+        for key, n in REQUIRED_SUBSCRIBERS.items():
+            if self._node.count_subscribers(TOPICS[key]) < n:
+                out.append(f"{TOPICS[key]} lacks subscribers")
+        for key in REQUIRED_PUBLISHERS:
+            if self._node.count_publishers(TOPICS[key]) < 1:
+                out.append(f"no publisher on {TOPICS[key]}")
         return "; ".join(out)
 
     def log_tail(self, name: str, lines: int = 5) -> str:
@@ -281,13 +277,11 @@ class RosSuite:
                 record_bag: bool = True, bag_name: str | None = None):
         from tethernet_msgs.srv import RunCapture
 
-        from .nodes import convert
-
         req = RunCapture.Request()
-        req.design = convert.design_msg(design)
+        req.design = conv.design_msg(design)
         req.nominal = seed is None
         req.seed = 0 if seed is None else int(seed)
-        req.noise = convert.noise_settings_msg(noise_model or self.noise_model or NoiseModel())
+        req.noise = conv.noise_settings_msg(noise_model or self.noise_model)
         req.record_bag = bool(record_bag)
         req.bag_name = bag_name or ""
         return req
@@ -333,21 +327,17 @@ class RosSuite:
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,
                 timeout: float = 900.0) -> tuple[EpisodeResult, str | None]:
-        from .nodes import convert
-
         resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name), timeout)
         if not resp.accepted:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.error:
             raise RosCaptureError(resp.error + (f" (bag: {resp.bag_path})" if resp.bag_path else ""))
-        result = convert.episode_result_from_msg(resp.result)
+        result = conv.episode_result_from_msg(resp.result)
         result.trace = self._trace()
         if result.trace.time and math.isfinite(result.settled_cqi):
             last = self._metrics[-1]
             if last.sim_time == result.completion_time:
-                result.settled_terms = {k: getattr(last, k) for k in (
-                    "cqi", "volume_term", "area_term", "distance_term", "hull_volume",
-                    "hull_area", "com_distance")}
+                result.settled_terms = conv.terms_from_msg(last)
         return result, (resp.bag_path or None)
 
     def _trace(self) -> EpisodeTrace:

@@ -13,95 +13,30 @@ so the states and the result are bit for bit those of ``tethernet capture --via 
 The closing trigger is evaluated inside the kernel from the ClosingCommand's threshold,
 which arrives before the first step, so nothing depends on message timing.
 
-The episode thread only copies the state at a publish step (a ``StateArrays`` snapshot);
-an :class:`Outbox` thread builds and publishes the messages, in order, while the kernel
-(which releases the GIL) goes on.  The outbox is bounded, so a slow publisher holds the
-episode back rather than dropping states; the result is published after every state.
+The episode thread only copies the state at a publish step; the outbox thread
+(:mod:`..publishing`) builds and publishes the messages in order; the result is published
+after every state.  On shutdown (SIGINT, SIGTERM) the episode stops at its next publish
+step and the node exits.
 """
 from __future__ import annotations
 
-import queue
 import sys
 import threading
 import time
 
 from rclpy.node import Node
 
-from ..core.episode import CaptureSimulation, run_simulation
-from ..core.scenario import build_scenario
-from . import common, convert
+from ...core.episode import CaptureSimulation, run_simulation
+from ...core.scenario import build_scenario
+from .. import conversions as conv
+from ..markers import MarkerBuilder
+from ..parameters import declare, param, topic
+from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
+from ..qos import command_qos, state_qos
+from ..runner import run_node, wait_for_subscribers
+from ..state import CommandBuffer, state_arrays
 
 NODE = "sim_node"
-
-
-class EpisodeAborted(Exception):
-    pass
-
-
-class PublishingSimulation(CaptureSimulation):
-    """CaptureSimulation that calls ``on_publish(self)`` at every multiple of ``every``
-    steps while advancing (splitting advance() there does not change the result)."""
-
-    def __init__(self, scenario, every: int, on_publish, should_stop):
-        super().__init__(scenario)
-        self.every = max(1, int(every))
-        self.on_publish = on_publish
-        self.should_stop = should_stop
-        self.last_published = -1
-
-    def advance(self, n_steps: int) -> None:
-        target = self.step + n_steps
-        while self.step < target:
-            if self.should_stop():
-                raise EpisodeAborted()
-            nxt = min(target, (self.step // self.every + 1) * self.every)
-            super().advance(nxt - self.step)
-            if self.step % self.every == 0:
-                self.publish()
-
-    def publish(self) -> None:
-        if self.step != self.last_published:
-            self.last_published = self.step
-            self.on_publish(self)
-
-
-class Outbox:
-    """One thread that runs queued publishing jobs in order (bounded: ``put`` blocks when
-    ``depth`` jobs wait).  ``drain()`` waits until every job put so far has run."""
-
-    def __init__(self, logger, depth: int = 8):
-        self._q: queue.Queue = queue.Queue(maxsize=depth)
-        self._log = logger
-        self._closed = False
-        self._thread = threading.Thread(target=self._run, name="outbox", daemon=True)
-        self._thread.start()
-
-    def put(self, job) -> None:
-        self._q.put(job)
-
-    def drain(self) -> None:
-        self._q.join()
-
-    def _run(self) -> None:
-        while True:
-            job = self._q.get()
-            try:
-                if job is None:
-                    return
-                job()
-            except Exception as exc:  # noqa: BLE001 - e.g. publishing after shutdown began
-                if not self._closed:
-                    self._log.error(f"publishing failed: {exc}")
-            finally:
-                self._q.task_done()
-
-    def close(self, timeout: float = 5.0) -> None:
-        self._closed = True
-        try:
-            self._q.put(None, timeout=timeout)
-        except queue.Full:
-            return
-        self._thread.join(timeout=timeout)
 
 
 class SimNode(Node):
@@ -119,14 +54,14 @@ class SimNode(Node):
         # time-min capture.
         sys.setswitchinterval(0.0005)
         self.node = node = self
-        common.declare(node, NODE)
-        p = lambda k: common.param(node, k)  # noqa: E731
+        declare(node, NODE)
+        p = lambda k: param(node, k)  # noqa: E731
         self.frame_id = p("frame_id")
         if p("warm_up"):
             self._warm_up()
         depth = int(p("queue_depth"))
-        sq, cq = common.state_qos(depth), common.command_qos()
-        t = lambda k: common.topic(node, k)  # noqa: E731
+        sq, cq = state_qos(depth), command_qos()
+        t = lambda k: topic(node, k)  # noqa: E731
         self.pub_state = node.create_publisher(NetState, t("net_state"), sq)
         self.pub_pose = node.create_publisher(PoseStamped, t("target_pose"), sq)
         self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
@@ -134,7 +69,7 @@ class SimNode(Node):
         self.pub_result = node.create_publisher(EpisodeResult, t("result"), cq)
         self._lock = threading.Lock()
         self._setup = None
-        self._commands = convert.CommandBuffer()
+        self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
         self._outbox = Outbox(node.get_logger())
@@ -145,13 +80,13 @@ class SimNode(Node):
 
     # -- parameters read at each episode (they may be changed between episodes) ----------
     def _p(self, key):
-        return common.param(self.node, key)
+        return param(self.node, key)
 
     @staticmethod
     def _warm_up() -> None:
         """Load (or compile) the numba kernels now rather than in the first episode."""
-        from ..core.design import REFERENCE_DESIGNS
-        from ..core.scenario import scenario_for
+        from ...core.design import REFERENCE_DESIGNS
+        from ...core.scenario import scenario_for
 
         CaptureSimulation(scenario_for(REFERENCE_DESIGNS["baseline"])).advance(1)
 
@@ -163,7 +98,7 @@ class SimNode(Node):
                 log.warning(f"episode {msg.episode_id!r} ignored: an episode is running")
                 return
             try:
-                self._setup = convert.setup_from_msg(msg)
+                self._setup = conv.setup_from_msg(msg)
             except Exception as exc:  # noqa: BLE001 - a bad setup is logged, not fatal
                 log.error(f"episode {msg.episode_id!r} rejected: {exc}")
                 self._setup = None
@@ -199,7 +134,7 @@ class SimNode(Node):
     def _run_episode(self, setup, launch, closing) -> None:
         log = self.node.get_logger()
         try:
-            actions, world = convert.actions_world_from_msgs(launch, closing)
+            actions, world = conv.commands_from_msgs(launch, closing)
             scenario = build_scenario(setup.design, actions, world, setup.config)
         except Exception as exc:  # noqa: BLE001
             log.error(f"episode {setup.episode_id!r}: cannot build the scenario: {exc}")
@@ -210,16 +145,16 @@ class SimNode(Node):
         mrate = float(self._p("marker_rate"))
         marker_every = max(1, int(round(1.0 / (mrate * dt)))) if mrate > 0 else 0
         rtf = float(self._p("real_time_factor"))
-        markers = convert.MarkerBuilder(scenario, self.frame_id)
+        markers = MarkerBuilder(scenario, self.frame_id)
         t_wall0 = time.monotonic()
         marker_step = [-1]
         frame = self.frame_id
         outbox = self._outbox
 
         def publish_states(state, with_markers):       # runs in the outbox thread
-            self.pub_clock.publish(convert.clock_msg(state.sim_time))
-            self.pub_state.publish(convert.net_state_msg(state, frame))
-            self.pub_pose.publish(convert.target_pose_msg(state, frame))
+            self.pub_clock.publish(conv.clock_msg(state.sim_time))
+            self.pub_state.publish(conv.net_state_msg(state, frame))
+            self.pub_pose.publish(conv.target_pose_msg(state, frame))
             if with_markers:
                 self.pub_markers.publish(markers.build(state))
 
@@ -231,17 +166,18 @@ class SimNode(Node):
             with_markers = bool(marker_every) and sim.step % marker_every == 0
             if with_markers:
                 marker_step[0] = sim.step
-            state = convert.state_arrays(sim)
+            state = state_arrays(sim)
             outbox.put(lambda: publish_states(state, with_markers))
 
         def publish_markers(sim):
             marker_step[0] = sim.step
-            state = convert.state_arrays(sim)
+            state = state_arrays(sim)
             outbox.put(lambda: self.pub_markers.publish(markers.build(state)))
 
         sim = PublishingSimulation(scenario, every, publish, self._stop.is_set)
         n_subs = int(self._p("min_state_subscribers"))
-        if not common.wait_for_subscribers(self.pub_state, n_subs, float(self._p("match_timeout"))):
+        if not wait_for_subscribers(self.pub_state, n_subs, float(self._p("match_timeout")),
+                                    self.context):
             log.warning(f"starting with {self.pub_state.get_subscription_count()} state "
                         f"subscriber(s) (expected {n_subs})")
         log.info(f"episode {setup.episode_id!r}: dt = {dt:.3e} s, publishing every {every} steps")
@@ -252,7 +188,7 @@ class SimNode(Node):
             if marker_every and marker_step[0] != sim.step:
                 publish_markers(sim)                        # ... and its markers
             result.seed = setup.seed
-            msg = convert.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time)
+            msg = conv.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time)
             outbox.put(lambda: self.pub_result.publish(msg))
             outbox.drain()
         except EpisodeAborted:
@@ -274,7 +210,7 @@ class SimNode(Node):
 
 
 def main(args=None) -> int:
-    return common.run_node(SimNode, args, threads=2)
+    return run_node(SimNode, args, threads=2)
 
 
 if __name__ == "__main__":

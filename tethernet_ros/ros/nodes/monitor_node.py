@@ -16,8 +16,12 @@ from collections import deque
 
 from rclpy.node import Node
 
-from ..monitoring import StateMirror
-from . import common, convert
+from ...monitoring import StateMirror
+from .. import conversions as conv
+from ..parameters import declare, param, topic
+from ..qos import command_qos, state_qos
+from ..runner import run_node
+from ..state import CommandBuffer
 
 NODE = "monitor_node"
 MAX_PENDING = 10000
@@ -29,15 +33,15 @@ class MonitorNode(Node):
             EpisodeSetup, LaunchCommand, NetState
 
         super().__init__(NODE)
-        common.declare(self, NODE)
-        t = lambda k: common.topic(self, k)  # noqa: E731
-        sq, cq = common.state_qos(int(common.param(self, "queue_depth"))), common.command_qos()
-        self.frame_id = common.param(self, "frame_id")
+        declare(self, NODE)
+        t = lambda k: topic(self, k)  # noqa: E731
+        sq, cq = state_qos(int(param(self, "queue_depth"))), command_qos()
+        self.frame_id = param(self, "frame_id")
         self._warm_up()
         self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"), sq)
         self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), cq)
         self.setup = None
-        self.commands = convert.CommandBuffer()
+        self.commands = CommandBuffer()
         self.mirror: StateMirror | None = None
         self.decided = False
         self.pending: deque = deque(maxlen=MAX_PENDING)
@@ -50,9 +54,9 @@ class MonitorNode(Node):
     @staticmethod
     def _warm_up() -> None:
         """Load the core's compiled helpers now, not while the first episode's states queue."""
-        from ..core.config import SimConfig
-        from ..core.design import REFERENCE_DESIGNS
-        from ..core.scenario import actions_for, world_for
+        from ...core.config import SimConfig
+        from ...core.design import REFERENCE_DESIGNS
+        from ...core.scenario import actions_for, world_for
 
         d = REFERENCE_DESIGNS["baseline"]
         mirror = StateMirror(d, actions_for(d, None), world_for(d, None), SimConfig())
@@ -61,7 +65,7 @@ class MonitorNode(Node):
 
     def on_setup(self, msg) -> None:
         try:
-            self.setup = convert.setup_from_msg(msg)
+            self.setup = conv.setup_from_msg(msg)
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"episode {msg.episode_id!r} rejected: {exc}")
             self.setup = None
@@ -85,7 +89,7 @@ class MonitorNode(Node):
         if launch is None or closing is None:
             return
         try:
-            actions, world = convert.actions_world_from_msgs(launch, closing)
+            actions, world = conv.commands_from_msgs(launch, closing)
             self.mirror = StateMirror(self.setup.design, actions, world, self.setup.config)
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"episode {self.setup.episode_id!r}: {exc}")
@@ -104,11 +108,11 @@ class MonitorNode(Node):
     def _process(self, msg) -> None:
         mirror = self.mirror
         try:
-            mirror.load(convert.state_from_msg(msg))
+            mirror.load(conv.net_state_from_msg(msg))
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"state at step {msg.step} ignored: {exc}")
             return
-        self.pub_metrics.publish(convert.metrics_msg(mirror.terms(), msg.sim_time,
+        self.pub_metrics.publish(conv.metrics_msg(mirror.terms(), msg.sim_time,
                                                      mirror.locked_pairs, mirror.closing_active,
                                                      self.frame_id))
         if self.decided:
@@ -118,14 +122,14 @@ class MonitorNode(Node):
             return
         self.decided = True
         result.seed = self.setup.seed
-        self.pub_verdict.publish(convert.episode_result_msg(result, self.setup.episode_id,
+        self.pub_verdict.publish(conv.episode_result_msg(result, self.setup.episode_id,
                                                             self.setup.seed is None, msg.sim_time))
         self.get_logger().info(f"episode {self.setup.episode_id!r}: verdict "
                                f"{'success' if result.success else 'failure'} at t = {msg.sim_time:.3f} s")
 
 
 def main(args=None) -> int:
-    return common.run_node(MonitorNode, args)
+    return run_node(MonitorNode, args)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,339 @@
+"""Conversions between tethernet_msgs / common_interfaces messages and the core's objects:
+``<thing>_msg(...)`` builds a message, ``<thing>_from_msg(msg)`` reads one back.
+
+Readers use attribute access only, so they accept rclpy messages as well as messages
+decoded from a bag by mcap-ros2-support or rosbags.  Builders import the rclpy message
+classes lazily.  Readers of request fields validate them: RequestError names the field.
+
+Units: SI; times in s (builtin_interfaces/Time: sec + nanosec).  Quaternions are
+(w, x, y, z) in the core and (x, y, z, w) in geometry_msgs.  NetState body order is the
+core's body layout (core/scenario.py): 289 net nodes (row-major), 4 corner masses, then
+the main tether's lumped masses from the net centre toward the chaser, whose last entry
+is the winch body on the chaser (so ``num_tether_nodes`` = tether_segments).
+"""
+from __future__ import annotations
+
+import array
+import json
+import math
+
+import numpy as np
+
+from ..core.config import SimConfig
+from ..core.design import Design, DesignError
+from ..core.episode import EpisodeResult
+from ..core.noise import NOISE_SOURCES, NoiseError, NoiseModel
+from ..core.scenario import Actions, World
+from .state import Setup, StateArrays
+
+#: core design field -> Design.msg field
+DESIGN_FIELDS = {"m_c": "corner_mass", "L_n": "net_side", "r_n": "thread_radius",
+                 "d_L": "distance_to_target", "V_e": "launch_velocity",
+                 "d_c": "closing_displacement"}
+#: noise source -> NoiseSettings.msg field
+NOISE_FIELDS = {s: f"{s}_scale" for s in NOISE_SOURCES}
+
+
+class RequestError(ValueError):
+    """A request or setup field is invalid; the message names the field (one line)."""
+
+    def __init__(self, field: str, message: str):
+        super().__init__(f"{field}: {message}")
+        self.field = field
+
+
+# --- time -------------------------------------------------------------------------------
+def split_time(t: float) -> tuple[int, int]:
+    """(sec, nanosec) of a non-negative time ``t`` in s."""
+    ns = int(round(max(t, 0.0) * 1e9))
+    return ns // 1_000_000_000, ns % 1_000_000_000
+
+
+def set_time(msg_time, t: float):
+    """Set a builtin_interfaces/Time to ``t`` s; returns it."""
+    msg_time.sec, msg_time.nanosec = split_time(t)
+    return msg_time
+
+
+def time_from_msg(msg_time) -> float:
+    """Seconds of a builtin_interfaces/Time."""
+    return msg_time.sec + 1e-9 * msg_time.nanosec
+
+
+# --- design -----------------------------------------------------------------------------
+def design_msg(design: Design):
+    from tethernet_msgs.msg import Design as DesignMsg
+
+    m = DesignMsg()
+    m.corner_mass = float(design.m_c)
+    m.net_side = float(design.L_n)
+    m.thread_radius = float(design.r_n)
+    m.distance_to_target = float(design.d_L)
+    m.launch_velocity = [float(v) for v in design.V_e]
+    m.closing_displacement = float(design.d_c)
+    return m
+
+
+def design_from_msg(m, prefix: str = "design") -> Design:
+    """Core Design of a Design message; RequestError naming ``design.<field>`` if invalid."""
+    try:
+        ve = [float(v) for v in m.launch_velocity]
+        if len(ve) != 3:
+            raise RequestError(f"{prefix}.launch_velocity", f"expected 3 values, got {len(ve)}")
+        return Design(m_c=float(m.corner_mass), L_n=float(m.net_side), r_n=float(m.thread_radius),
+                      d_L=float(m.distance_to_target), V_e=tuple(ve),
+                      d_c=float(m.closing_displacement))
+    except DesignError as exc:
+        core = exc.field.split("[")[0]
+        name = DESIGN_FIELDS.get(core, core)
+        index = exc.field[len(core):]
+        detail = str(exc).split(": ", 1)[1] if ": " in str(exc) else str(exc)
+        raise RequestError(f"{prefix}.{name}{index}", f"({exc.field}) {detail}") from None
+
+
+# --- noise settings ---------------------------------------------------------------------
+def noise_settings_msg(model: NoiseModel | None):
+    """NoiseSettings of a model's scale factors and axis (None: the nominal spreads,
+    every scale 1.0 and axis 'z', which are also the message's defaults)."""
+    from tethernet_msgs.msg import NoiseSettings
+
+    model = NoiseModel() if model is None else model
+    m = NoiseSettings()
+    for source, name in NOISE_FIELDS.items():
+        setattr(m, name, float(model.scales[source]))
+    m.orientation_axis = model.orientation_axis
+    return m
+
+
+def noise_settings_from_msg(settings, prefix: str = "noise") -> tuple[dict[str, float], str]:
+    """(scale factor per noise source, orientation axis) of a NoiseSettings message;
+    RequestError names the field if a factor is not in [0, 100] or the axis not z / y."""
+    scales = {}
+    for source, name in NOISE_FIELDS.items():
+        v = float(getattr(settings, name))
+        if not math.isfinite(v) or not 0.0 <= v <= 100.0:
+            raise RequestError(f"{prefix}.{name}", f"got {v}; must be a finite factor in [0, 100]")
+        scales[source] = v
+    axis = settings.orientation_axis or "z"
+    if axis not in ("z", "y"):
+        raise RequestError(f"{prefix}.orientation_axis", f"got {axis!r}; must be 'z' or 'y'")
+    return scales, axis
+
+
+def noise_model_from_msg(settings, spreads: dict | None = None,
+                         prefix: str = "noise") -> NoiseModel:
+    """NoiseModel of a NoiseSettings message with the given spreads (NoiseModel field ->
+    value; the core's defaults where absent).  RequestError names the field."""
+    scales, axis = noise_settings_from_msg(settings, prefix)
+    try:
+        return NoiseModel(orientation_axis=axis, scales=scales, **(spreads or {}))
+    except NoiseError as exc:
+        raise RequestError(prefix, str(exc)) from None
+
+
+# --- episode setup ----------------------------------------------------------------------
+def config_overrides(config: SimConfig) -> dict:
+    """The SimConfig fields that differ from the defaults (field -> value)."""
+    base = SimConfig().to_dict()
+    return {k: v for k, v in config.to_dict().items() if v != base[k]}
+
+
+def config_from_json(text: str, field: str = "sim_config_json") -> SimConfig:
+    data = json.loads(text) if text and text.strip() else {}
+    if not isinstance(data, dict):
+        raise ValueError(f"{field}: expected a JSON object of SimConfig fields")
+    return SimConfig.from_dict(data)
+
+
+def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseModel | None,
+              config: SimConfig, wall_time: float):
+    """EpisodeSetup of one episode (seed None: nominal), stamped with ``wall_time`` (s)."""
+    from tethernet_msgs.msg import EpisodeSetup
+
+    m = EpisodeSetup()
+    set_time(m.header.stamp, wall_time)
+    m.header.frame_id = "chaser"
+    m.episode_id = episode_id
+    m.design = design_msg(design)
+    m.nominal = seed is None
+    m.seed = 0 if seed is None else int(seed)
+    m.noise = noise_settings_msg(noise)
+    m.sim_config_json = json.dumps(config_overrides(config), sort_keys=True)
+    return m
+
+
+def setup_from_msg(m) -> Setup:
+    nominal = bool(m.nominal)
+    scales, axis = (None, "z") if nominal else noise_settings_from_msg(m.noise)
+    return Setup(episode_id=m.episode_id, design=design_from_msg(m.design),
+                 seed=None if nominal else int(m.seed), noise_scales=scales,
+                 orientation_axis=axis, config=config_from_json(m.sim_config_json),
+                 stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)))
+
+
+# --- actuator commands --------------------------------------------------------------------
+def launch_command_msg(actions: Actions, world: World, seed: int | None, key: tuple[int, int],
+                       frame_id: str = "chaser"):
+    """LaunchCommand: noisy corner velocities and the target placement the actuator drew.
+    Its header stamp is the EpisodeSetup's stamp (the episode's correlation key)."""
+    from tethernet_msgs.msg import LaunchCommand
+
+    m = LaunchCommand()
+    m.header.stamp.sec, m.header.stamp.nanosec = key
+    m.header.frame_id = frame_id
+    m.seed = 0 if seed is None else int(seed)
+    m.corner_velocities = array.array("d", np.ascontiguousarray(actions.corner_velocities,
+                                                                dtype=float).tobytes())
+    m.distance_to_target = float(world.distance)
+    m.target_rotation = float(world.rotation)
+    m.rotation_axis = world.rotation_axis
+    return m
+
+
+def closing_command_msg(actions: Actions, key: tuple[int, int], frame_id: str = "chaser"):
+    """ClosingCommand: the noisy closing displacement (m), stamped like the launch."""
+    from tethernet_msgs.msg import ClosingCommand
+
+    m = ClosingCommand()
+    m.header.stamp.sec, m.header.stamp.nanosec = key
+    m.header.frame_id = frame_id
+    m.closing_displacement = float(actions.closing_displacement)
+    return m
+
+
+def commands_from_msgs(launch, closing) -> tuple[Actions, World]:
+    """The core's Actions and World of a LaunchCommand and a ClosingCommand."""
+    cv = np.array(np.asarray(launch.corner_velocities, dtype=float)).reshape(4, 3)
+    actions = Actions(corner_velocities=cv, closing_displacement=float(closing.closing_displacement))
+    world = World(distance=float(launch.distance_to_target), rotation=float(launch.target_rotation),
+                  rotation_axis=launch.rotation_axis or "z")
+    return actions, world
+
+
+# --- states -------------------------------------------------------------------------------
+def _vec(v) -> np.ndarray:
+    return np.array([v.x, v.y, v.z], dtype=float)
+
+
+def net_state_msg(state: StateArrays, frame_id: str = "chaser"):
+    """NetState of a state snapshot (header stamp: sim time)."""
+    from tethernet_msgs.msg import NetState
+
+    m = NetState()
+    set_time(m.header.stamp, state.sim_time)
+    m.header.frame_id = frame_id
+    m.sim_time = state.sim_time
+    m.step = state.step
+    m.positions = array.array("d", np.ascontiguousarray(state.positions).tobytes())
+    m.velocities = array.array("d", np.ascontiguousarray(state.velocities).tobytes())
+    m.num_net_nodes = state.num_net_nodes
+    m.num_corner_masses = state.num_corner_masses
+    m.num_tether_nodes = len(state.positions) - state.num_net_nodes - state.num_corner_masses
+    p, q = m.target_pose.position, m.target_pose.orientation
+    p.x, p.y, p.z = (float(v) for v in state.target_position)
+    q.w, q.x, q.y, q.z = (float(v) for v in state.target_quaternion)
+    lin, ang = m.target_twist.linear, m.target_twist.angular
+    lin.x, lin.y, lin.z = (float(v) for v in state.target_velocity)
+    ang.x, ang.y, ang.z = (float(v) for v in state.target_omega)
+    m.closing_active = bool(state.closing_active)
+    m.closing_start_time = float(state.closing_start_time)
+    m.locked = [bool(v) for v in state.locked]
+    return m
+
+
+def net_state_from_msg(m) -> StateArrays:
+    pos = np.asarray(m.positions, dtype=float)
+    vel = np.asarray(m.velocities, dtype=float)
+    q = m.target_pose.orientation
+    return StateArrays(
+        step=int(m.step), sim_time=float(m.sim_time),
+        positions=pos.reshape(-1, 3), velocities=vel.reshape(-1, 3),
+        target_position=_vec(m.target_pose.position),
+        target_quaternion=np.array([q.w, q.x, q.y, q.z], dtype=float),
+        target_velocity=_vec(m.target_twist.linear), target_omega=_vec(m.target_twist.angular),
+        closing_active=bool(m.closing_active), closing_start_time=float(m.closing_start_time),
+        locked=np.array([bool(v) for v in m.locked], dtype=bool),
+        num_net_nodes=int(m.num_net_nodes), num_corner_masses=int(m.num_corner_masses))
+
+
+def target_pose_msg(state: StateArrays, frame_id: str = "chaser"):
+    """PoseStamped of the target's centre of mass (m) and attitude (header stamp: sim time)."""
+    from geometry_msgs.msg import PoseStamped
+
+    m = PoseStamped()
+    set_time(m.header.stamp, state.sim_time)
+    m.header.frame_id = frame_id
+    m.pose.position.x, m.pose.position.y, m.pose.position.z = \
+        (float(v) for v in state.target_position)
+    o = m.pose.orientation
+    o.w, o.x, o.y, o.z = (float(v) for v in state.target_quaternion)
+    return m
+
+
+def clock_msg(t: float):
+    """rosgraph_msgs/Clock at sim time ``t`` (s)."""
+    from rosgraph_msgs.msg import Clock
+
+    m = Clock()
+    set_time(m.clock, t)
+    return m
+
+
+# --- metrics and results ------------------------------------------------------------------
+#: CaptureMetrics fields that are the core's CQITerms
+TERM_FIELDS = ("cqi", "volume_term", "area_term", "distance_term", "hull_volume", "hull_area",
+               "com_distance")
+
+
+def metrics_msg(terms, sim_time: float, locked_pairs: int, closing_active: bool,
+                frame_id: str = "chaser"):
+    """CaptureMetrics of core CQITerms (None: state not finite -> NaN terms)."""
+    from tethernet_msgs.msg import CaptureMetrics
+
+    m = CaptureMetrics()
+    set_time(m.header.stamp, sim_time)
+    m.header.frame_id = frame_id
+    m.sim_time = float(sim_time)
+    for name in TERM_FIELDS:
+        setattr(m, name, getattr(terms, name) if terms else math.nan)
+    m.locked_pairs = int(locked_pairs)
+    m.closing_active = bool(closing_active)
+    return m
+
+
+def terms_from_msg(m) -> dict[str, float]:
+    """The CQI terms of a CaptureMetrics message, by name."""
+    return {name: getattr(m, name) for name in TERM_FIELDS}
+
+
+def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
+                       sim_time: float = 0.0):
+    from tethernet_msgs.msg import EpisodeResult as ResultMsg
+
+    m = ResultMsg()
+    set_time(m.header.stamp, sim_time)
+    m.header.frame_id = "chaser"
+    m.episode_id = episode_id
+    m.seed = 0 if result.seed is None else int(result.seed)
+    m.nominal = bool(nominal)
+    m.success = bool(result.success)
+    m.settled_cqi = float(result.settled_cqi)
+    m.locked_pairs = int(result.locked_pairs)
+    ct = result.closing_time
+    m.closing_time = -1.0 if ct is None or not math.isfinite(ct) else float(ct)
+    m.completion_time = float(result.completion_time)
+    m.mass = float(result.mass)
+    m.failure_reason = result.failure_reason
+    m.wall_time = float(result.wall_time)
+    return m
+
+
+def episode_result_from_msg(m) -> EpisodeResult:
+    """Core EpisodeResult of a message.  ``steps`` (-1) and ``max_penetration`` (NaN) are
+    not carried by the message."""
+    return EpisodeResult(
+        success=bool(m.success), settled_cqi=float(m.settled_cqi), locked_pairs=int(m.locked_pairs),
+        closing_time=float(m.closing_time) if m.closing_time >= 0 else math.nan,
+        completion_time=float(m.completion_time), mass=float(m.mass),
+        failure_reason=m.failure_reason, wall_time=float(m.wall_time),
+        seed=None if m.nominal else int(m.seed), steps=-1, max_penetration=math.nan)

@@ -1,0 +1,50 @@
+"""Names of the suite's graph: nodes, topics and their types, services, and what the
+capture node requires of the graph before an episode.  No ROS import."""
+from __future__ import annotations
+
+#: the four node executables (console scripts, ``ros2 run tethernet_ros <node>``)
+NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
+
+#: topic names (parameters ``topics.<key>`` of every node)
+TOPICS: dict[str, str] = {
+    "setup": "/tethernet/episode_setup",
+    "launch_command": "/tethernet/launch_command",
+    "closing_command": "/tethernet/closing_command",
+    "net_state": "/tethernet/net_state",
+    "target_pose": "/tethernet/target_pose",
+    "markers": "/tethernet/markers",
+    "metrics": "/tethernet/capture_metrics",
+    "result": "/tethernet/episode_result",
+    "verdict": "/tethernet/monitor_verdict",
+    "clock": "/clock",
+}
+
+#: message type of every topic (ROS 2 type names)
+TOPIC_TYPES: dict[str, str] = {
+    "setup": "tethernet_msgs/msg/EpisodeSetup",
+    "launch_command": "tethernet_msgs/msg/LaunchCommand",
+    "closing_command": "tethernet_msgs/msg/ClosingCommand",
+    "net_state": "tethernet_msgs/msg/NetState",
+    "target_pose": "geometry_msgs/msg/PoseStamped",
+    "markers": "visualization_msgs/msg/MarkerArray",
+    "metrics": "tethernet_msgs/msg/CaptureMetrics",
+    "result": "tethernet_msgs/msg/EpisodeResult",
+    "verdict": "tethernet_msgs/msg/EpisodeResult",
+    "clock": "rosgraph_msgs/msg/Clock",
+}
+
+SERVICE = "/tethernet/run_capture"
+#: std_srvs/Trigger of the capture node: success when it sees every node of the suite
+READY_SERVICE = "/tethernet/suite_ready"
+
+#: subscribers of each topic the capture node requires before it starts an episode
+#: (its own recorder included)
+REQUIRED_SUBSCRIBERS = {"setup": 4, "launch_command": 3, "closing_command": 3, "net_state": 2}
+#: topics that need a publisher before an episode starts
+REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metrics", "result",
+                       "verdict")
+#: topics every bag holds, whatever ``record_topics`` says (replay needs them)
+ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",
+                   "result", "verdict")
+#: recorded topics whose messages carry the simulated time of a state (header stamp)
+STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")

@@ -1,0 +1,75 @@
+"""The nodes' main loop: init, spin, shut down cleanly on SIGINT and SIGTERM alike.
+
+rclpy installs its own handlers for both signals (``SignalHandlerOptions.ALL``, asked for
+explicitly here).  They run in C, so they work while an executor waits inside rcl: they
+shut the context down and wake every executor, whose ``spin`` then ends with
+ExternalShutdownException.  A Python ``signal.signal`` handler would replace rclpy's and
+could only run between bytecodes of the main thread, which never happens while it waits
+in C; so none is installed.  Work that runs inside a callback for long (the capture
+node's episode) watches ``context.ok()`` and stops by itself.  The node's ``close()`` then
+ends its threads (and finishes or marks its bag) before the process exits with status 0.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+
+def default_environment() -> None:
+    """Keep DDS discovery on this host unless the environment says otherwise."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+
+
+def wait_for_subscribers(publisher, count: int, timeout: float, context=None) -> bool:
+    """Wait until ``publisher`` has matched ``count`` subscriptions (at most ``timeout``
+    s; False also when ``context`` shuts down meanwhile)."""
+    deadline = time.monotonic() + timeout
+    while publisher.get_subscription_count() < count:
+        if time.monotonic() > deadline or (context is not None and not context.ok()):
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def run_node(factory, args=None, threads: int = 1) -> int:
+    """Init rclpy, build the node with ``factory()``, spin it until SIGINT, SIGTERM or
+    shutdown, then ``node.close()`` (if it has one).  Returns the process exit status:
+    0 on a clean shutdown, 1 with one line on stderr if the node failed."""
+    default_environment()
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor, \
+        SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+
+    rclpy.init(args=args if args is not None else sys.argv,
+               signal_handler_options=SignalHandlerOptions.ALL)
+    node = None
+    status = 0
+    try:
+        node = factory()
+        executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 \
+            else SingleThreadedExecutor()
+        executor.add_node(node)
+        try:
+            executor.spin()
+        finally:
+            executor.shutdown(timeout_sec=1.0)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as exc:  # noqa: BLE001 - one line on stderr, non-zero status
+        if os.environ.get("TETHERNET_DEBUG"):
+            import traceback
+
+            traceback.print_exc()
+        name = node.get_name() if node is not None else getattr(factory, "__name__", "node")
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        status = 1
+    finally:
+        if node is not None:
+            close = getattr(node, "close", None)
+            if close is not None:
+                close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return status
