@@ -37,6 +37,7 @@ from .geometry import local_sdf, quat_to_matrix_into
 from .rigid import integrate_target
 from .state import CONTACT_FREQUENCY, E_CLOSING_ACTIVE, E_TETHER_LOCKED, E_STEP, LOCK_RATCHET
 from .tether import pay_out_tether
+from .threads import gather_thread_forces
 from .work import make_work, store_work
 
 #: Per-step rows.  Grid x-threads (n, n - 1) and y-threads (n - 1, n): unit direction
@@ -44,20 +45,36 @@ from .work import make_work, store_work
 #: gamma) (kg).  Links (M,): the same plus their ends' rows.  Contacts, one per body at
 #: most (N,): normal (cnx..), the target's material velocity at the body (cvx..), bias,
 #: compliance, 1 / (w + gamma), and ``crow`` the bodies with a row (first ``n_rows[0]``).
-#: Locks (P,): direction, bias, 1 / (w_a + w_b).
+#: Locks (P,): direction, bias, 1 / (w_a + w_b).  Constant over a call, per grid thread:
+#: k / (h k + c) (1/s), 1 / (h (h k + c)) (1/kg) and 1 / (w_a + w_b + gamma) when taut,
+#: 1 / (w_a + w_b) when slack (hkd, hgd, hikt, hiks; vkd.. for y-threads).
 Rows = namedtuple("Rows", "hnx hny hnz hb hg hik vnx vny vnz vb vg vik "
+                          "hkd hgd hikt hiks vkd vgd vikt viks "
                           "lnx lny lnz lb lg lik "
                           "cnx cny cnz cvx cvy cvz cb cg cik crow n_rows "
                           "qnx qny qnz qb qik")
 
 
+@njit(cache=True, inline='always')
+def _thread_constants(k, c, wsum, h):
+    """k / (h k + c), 1 / (h (h k + c)), and the inverse effective masses taut and slack."""
+    denom = h * k + c
+    if denom <= 0.0:
+        return 0.0, 0.0, (1.0 / wsum if wsum > 0.0 else 0.0), (1.0 / wsum if wsum > 0.0 else 0.0)
+    g = 1.0 / (h * denom)
+    return k / denom, g, 1.0 / (wsum + g), (1.0 / wsum if wsum > 0.0 else 0.0)
+
+
 @njit(cache=True)
-def make_rows(grid, n_links, n_bodies, n_pairs):
+def make_rows(grid, n_links, n_bodies, n_pairs, w, h):
+    """Row storage of one call, with the grid threads' constants for the step h (s)."""
     ng = grid.n
     nh = (ng, max(ng - 1, 0))
     nv = (max(ng - 1, 0), ng)
-    return Rows(np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh),
+    rows = Rows(np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh),
                 np.zeros(nv), np.zeros(nv), np.zeros(nv), np.zeros(nv), np.zeros(nv), np.zeros(nv),
+                np.zeros(nh), np.zeros(nh), np.zeros(nh), np.zeros(nh),
+                np.zeros(nv), np.zeros(nv), np.zeros(nv), np.zeros(nv),
                 np.zeros(n_links), np.zeros(n_links), np.zeros(n_links), np.zeros(n_links),
                 np.zeros(n_links), np.zeros(n_links),
                 np.zeros(n_bodies), np.zeros(n_bodies), np.zeros(n_bodies), np.zeros(n_bodies),
@@ -65,68 +82,163 @@ def make_rows(grid, n_links, n_bodies, n_pairs):
                 np.zeros(n_bodies), np.zeros(n_bodies, dtype=np.int64), np.zeros(1, dtype=np.int64),
                 np.zeros(n_pairs), np.zeros(n_pairs), np.zeros(n_pairs), np.zeros(n_pairs),
                 np.zeros(n_pairs))
+    for i in range(ng):
+        for j in range(ng - 1):
+            a = i * ng + j
+            kd, gd, ikt, iks = _thread_constants(grid.kh[i, j], grid.ch[i, j], w[a] + w[a + 1], h)
+            rows.hkd[i, j] = kd
+            rows.hgd[i, j] = gd
+            rows.hikt[i, j] = ikt
+            rows.hiks[i, j] = iks
+    for i in range(ng - 1):
+        for j in range(ng):
+            a = i * ng + j
+            kd, gd, ikt, iks = _thread_constants(grid.kv[i, j], grid.cv[i, j], w[a] + w[a + ng], h)
+            rows.vkd[i, j] = kd
+            rows.vgd[i, j] = gd
+            rows.vikt[i, j] = ikt
+            rows.viks[i, j] = iks
+    return rows
 
 
 @njit(cache=True, inline='always')
 def _thread_row(dx, dy, dz, rest, k, c, wsum, h):
-    """Direction, bias, compliance and inverse effective mass of one thread row."""
+    """Direction, bias, compliance and inverse effective mass of one thread row
+    (branch-free, so that the grid loops vectorise)."""
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / max(length, 1e-12)
     C = length - rest
     denom = h * k + c
     taut = C > 0.0 and denom > 0.0
-    b = k * C / denom if taut else C / h
-    g = 1.0 / (h * denom) if taut else 0.0
+    safe = denom if denom > 0.0 else 1.0
+    b = k * C / safe if taut else C / h
+    g = 1.0 / (h * safe) if taut else 0.0
     s = wsum + g
     ik = 1.0 / s if s > 0.0 else 0.0
     return dx * inv, dy * inv, dz * inv, b, g, ik
 
 
+@njit(cache=True, inline='always')
+def _grid_row(dx, dy, dz, rest, kd, gd, ikt, iks, inv_h):
+    """A grid thread's row from its per-call constants: direction, bias, compliance and
+    inverse effective mass (branch-free)."""
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    inv = 1.0 / max(length, 1e-12)
+    C = length - rest
+    taut = C > 0.0
+    b = kd * C if taut else C * inv_h
+    g = gd if taut else 0.0
+    ik = ikt if taut else iks
+    return dx * inv, dy * inv, dz * inv, b, g, ik
+
+
 @njit(cache=True, error_model='numpy')
-def prepare_thread_rows(wk, rows, grid, links, w, h):
-    """Rows of every grid thread and active other thread at the start of the step."""
+def prepare_thread_rows(wk, rows, grid, links, w, h, sol):
+    """Rows of every grid thread and active other thread at the start of the step, and the
+    last step's impulses along this step's directions, in the explicit method's force
+    layout (wk.HX.., UX.., EF as impulses): ``gather_thread_forces`` then sums them."""
     ng = grid.n
+    inv_h = 1.0 / h
     X, Y, Z = wk.X, wk.Y, wk.Z
     for i in range(ng):
         r0 = i * ng
+        xr = X[r0:r0 + ng]
+        yr = Y[r0:r0 + ng]
+        zr = Z[r0:r0 + ng]
+        nxr = rows.hnx[i]
+        nyr = rows.hny[i]
+        nzr = rows.hnz[i]
+        br = rows.hb[i]
+        gr = rows.hg[i]
+        ikr = rows.hik[i]
+        pr = sol.grid_ph[i]
+        h0 = i * (ng + 1)
+        hx = wk.HX[h0:h0 + ng + 1]
+        hy = wk.HY[h0:h0 + ng + 1]
+        hz = wk.HZ[h0:h0 + ng + 1]
+        kd = rows.hkd[i]
+        gd = rows.hgd[i]
+        ikt = rows.hikt[i]
+        iks = rows.hiks[i]
         for j in range(ng - 1):
-            a = r0 + j
-            nx, ny, nz, b, g, ik = _thread_row(X[a + 1] - X[a], Y[a + 1] - Y[a], Z[a + 1] - Z[a],
-                                               grid.rest, grid.kh[i, j], grid.ch[i, j],
-                                               w[a] + w[a + 1], h)
-            rows.hnx[i, j] = nx
-            rows.hny[i, j] = ny
-            rows.hnz[i, j] = nz
-            rows.hb[i, j] = b
-            rows.hg[i, j] = g
-            rows.hik[i, j] = ik
+            nx, ny, nz, b, g, ik = _grid_row(xr[j + 1] - xr[j], yr[j + 1] - yr[j],
+                                             zr[j + 1] - zr[j], grid.rest, kd[j], gd[j], ikt[j],
+                                             iks[j], inv_h)
+            nxr[j] = nx
+            nyr[j] = ny
+            nzr[j] = nz
+            br[j] = b
+            gr[j] = g
+            ikr[j] = ik
+            # the impulse P n on the second end (P < 0: tension), -P n on the first
+            hx[j + 1] = -pr[j] * nx
+            hy[j + 1] = -pr[j] * ny
+            hz[j + 1] = -pr[j] * nz
     for i in range(ng - 1):
         r0 = i * ng
+        r1 = r0 + ng
+        nxr = rows.vnx[i]
+        nyr = rows.vny[i]
+        nzr = rows.vnz[i]
+        br = rows.vb[i]
+        gr = rows.vg[i]
+        ikr = rows.vik[i]
+        pr = sol.grid_pv[i]
+        ux = wk.UX[r1:r1 + ng]
+        uy = wk.UY[r1:r1 + ng]
+        uz = wk.UZ[r1:r1 + ng]
+        xa = X[r0:r0 + ng]
+        ya = Y[r0:r0 + ng]
+        za = Z[r0:r0 + ng]
+        xb = X[r1:r1 + ng]
+        yb = Y[r1:r1 + ng]
+        zb = Z[r1:r1 + ng]
+        kd = rows.vkd[i]
+        gd = rows.vgd[i]
+        ikt = rows.vikt[i]
+        iks = rows.viks[i]
         for j in range(ng):
-            a = r0 + j
-            nx, ny, nz, b, g, ik = _thread_row(X[a + ng] - X[a], Y[a + ng] - Y[a], Z[a + ng] - Z[a],
-                                               grid.rest, grid.kv[i, j], grid.cv[i, j],
-                                               w[a] + w[a + ng], h)
-            rows.vnx[i, j] = nx
-            rows.vny[i, j] = ny
-            rows.vnz[i, j] = nz
-            rows.vb[i, j] = b
-            rows.vg[i, j] = g
-            rows.vik[i, j] = ik
+            nx, ny, nz, b, g, ik = _grid_row(xb[j] - xa[j], yb[j] - ya[j], zb[j] - za[j],
+                                             grid.rest, kd[j], gd[j], ikt[j], iks[j], inv_h)
+            nxr[j] = nx
+            nyr[j] = ny
+            nzr[j] = nz
+            br[j] = b
+            gr[j] = g
+            ikr[j] = ik
+            ux[j] = -pr[j] * nx
+            uy[j] = -pr[j] * ny
+            uz[j] = -pr[j] * nz
     for m in range(links.pairs.shape[0]):
+        wk.EF[m, 0] = 0.0
+        wk.EF[m, 1] = 0.0
+        wk.EF[m, 2] = 0.0
         a = links.pairs[m, 0]
         b_ = links.pairs[m, 1]
         if links.active[m] == 0:
             rows.lik[m] = 0.0
+            sol.link_p[m] = 0.0
             continue
-        nx, ny, nz, b, g, ik = _thread_row(X[b_] - X[a], Y[b_] - Y[a], Z[b_] - Z[a], links.rest[m],
-                                           links.k[m], links.c[m], w[a] + w[b_], h)
+        nx, ny, nz, b, g, ik = _thread_row(X[b_] - X[a], Y[b_] - Y[a], Z[b_] - Z[a],
+                                           links.rest[m], links.k[m], links.c[m], w[a] + w[b_], h)
         rows.lnx[m] = nx
         rows.lny[m] = ny
         rows.lnz[m] = nz
         rows.lb[m] = b
         rows.lg[m] = g
         rows.lik[m] = ik
+        wk.EF[m, 0] = -sol.link_p[m] * nx
+        wk.EF[m, 1] = -sol.link_p[m] * ny
+        wk.EF[m, 2] = -sol.link_p[m] * nz
+
+
+@njit(cache=True, error_model='numpy')
+def apply_gathered(wk, w):
+    """v += w P for the per-body impulse sums in wk.FX.. (N s)."""
+    for i in range(wk.VX.shape[0]):
+        wk.VX[i] += w[i] * wk.FX[i]
+        wk.VY[i] += w[i] * wk.FY[i]
+        wk.VZ[i] += w[i] * wk.FZ[i]
 
 
 @njit(cache=True, inline='always')
@@ -140,59 +252,69 @@ def _apply(wk, w, a, b, nx, ny, nz, dP):
     wk.VZ[b] += w[b] * nz * dP
 
 
-@njit(cache=True, error_model='numpy')
-def warm_start_threads(wk, rows, grid, links, w, sol):
-    """Apply the last step's thread impulses along this step's directions."""
-    ng = grid.n
-    for i in range(ng):
-        for j in range(ng - 1):
-            a = i * ng + j
-            _apply(wk, w, a, a + 1, rows.hnx[i, j], rows.hny[i, j], rows.hnz[i, j], sol.grid_ph[i, j])
-    for i in range(ng - 1):
-        for j in range(ng):
-            a = i * ng + j
-            _apply(wk, w, a, a + ng, rows.vnx[i, j], rows.vny[i, j], rows.vnz[i, j], sol.grid_pv[i, j])
-    for m in range(links.pairs.shape[0]):
-        if links.active[m] == 0:
-            sol.link_p[m] = 0.0
-            continue
-        _apply(wk, w, links.pairs[m, 0], links.pairs[m, 1], rows.lnx[m], rows.lny[m], rows.lnz[m],
-               sol.link_p[m])
+@njit(cache=True, inline='always')
+def _solve_row(va_x, va_y, va_z, vb_x, vb_y, vb_z, wa, wb, nx, ny, nz, b, g, ik, pr, j, ja, jb):
+    """One tension-only thread row between va[ja] and vb[jb] with impulse pr[j] (N s):
+    the projected Gauss-Seidel update."""
+    jv = nx * (vb_x[jb] - va_x[ja]) + ny * (vb_y[jb] - va_y[ja]) + nz * (vb_z[jb] - va_z[ja])
+    P = pr[j]
+    Pn = min(P - (jv + b + g * P) * ik, 0.0)
+    pr[j] = Pn
+    dP = Pn - P
+    va_x[ja] -= wa[ja] * nx * dP
+    va_y[ja] -= wa[ja] * ny * dP
+    va_z[ja] -= wa[ja] * nz * dP
+    vb_x[jb] += wb[jb] * nx * dP
+    vb_y[jb] += wb[jb] * ny * dP
+    vb_z[jb] += wb[jb] * nz * dP
 
 
 @njit(cache=True, error_model='numpy')
 def sweep_grid(wk, rows, grid, w, sol):
-    """One Gauss-Seidel sweep over the grid threads, colour by colour."""
+    """One Gauss-Seidel sweep over the grid threads, colour by colour: x-threads of even,
+    then odd columns; y-threads of even, then odd rows (threads of one colour share no
+    node)."""
     ng = grid.n
     VX, VY, VZ = wk.VX, wk.VY, wk.VZ
-    for colour in range(2):                       # x-threads: even, then odd columns
+    for colour in range(2):
         for i in range(ng):
             r0 = i * ng
+            vx = VX[r0:r0 + ng]
+            vy = VY[r0:r0 + ng]
+            vz = VZ[r0:r0 + ng]
+            wr = w[r0:r0 + ng]
+            nxr = rows.hnx[i]
+            nyr = rows.hny[i]
+            nzr = rows.hnz[i]
+            br = rows.hb[i]
+            gr = rows.hg[i]
+            ikr = rows.hik[i]
+            pr = sol.grid_ph[i]
             for j in range(colour, ng - 1, 2):
-                a = r0 + j
-                b = a + 1
-                nx = rows.hnx[i, j]
-                ny = rows.hny[i, j]
-                nz = rows.hnz[i, j]
-                jv = nx * (VX[b] - VX[a]) + ny * (VY[b] - VY[a]) + nz * (VZ[b] - VZ[a])
-                P = sol.grid_ph[i, j]
-                Pn = min(P - (jv + rows.hb[i, j] + rows.hg[i, j] * P) * rows.hik[i, j], 0.0)
-                sol.grid_ph[i, j] = Pn
-                _apply(wk, w, a, b, nx, ny, nz, Pn - P)
-    for colour in range(2):                       # y-threads: even, then odd rows
+                _solve_row(vx, vy, vz, vx, vy, vz, wr, wr, nxr[j], nyr[j], nzr[j], br[j], gr[j],
+                           ikr[j], pr, j, j, j + 1)
+    for colour in range(2):
         for i in range(colour, ng - 1, 2):
             r0 = i * ng
+            r1 = r0 + ng
+            va_x = VX[r0:r0 + ng]
+            va_y = VY[r0:r0 + ng]
+            va_z = VZ[r0:r0 + ng]
+            vb_x = VX[r1:r1 + ng]
+            vb_y = VY[r1:r1 + ng]
+            vb_z = VZ[r1:r1 + ng]
+            wa = w[r0:r0 + ng]
+            wb = w[r1:r1 + ng]
+            nxr = rows.vnx[i]
+            nyr = rows.vny[i]
+            nzr = rows.vnz[i]
+            br = rows.vb[i]
+            gr = rows.vg[i]
+            ikr = rows.vik[i]
+            pr = sol.grid_pv[i]
             for j in range(ng):
-                a = r0 + j
-                b = a + ng
-                nx = rows.vnx[i, j]
-                ny = rows.vny[i, j]
-                nz = rows.vnz[i, j]
-                jv = nx * (VX[b] - VX[a]) + ny * (VY[b] - VY[a]) + nz * (VZ[b] - VZ[a])
-                P = sol.grid_pv[i, j]
-                Pn = min(P - (jv + rows.vb[i, j] + rows.vg[i, j] * P) * rows.vik[i, j], 0.0)
-                sol.grid_pv[i, j] = Pn
-                _apply(wk, w, a, b, nx, ny, nz, Pn - P)
+                _solve_row(va_x, va_y, va_z, vb_x, vb_y, vb_z, wa, wb, nxr[j], nyr[j], nzr[j],
+                           br[j], gr[j], ikr[j], pr, j, j, j)
 
 
 @njit(cache=True, error_model='numpy')
@@ -450,7 +572,7 @@ def advance_implicit(n_steps, bodies, grid, links, ring, tether, target, prm, ev
     h = prm.dt
     w = bodies.w
     wk = make_work(bodies, grid, links, ring)
-    rows = make_rows(grid, links.pairs.shape[0], bodies.x.shape[0], ring.pairs.shape[0])
+    rows = make_rows(grid, links.pairs.shape[0], bodies.x.shape[0], ring.pairs.shape[0], w, h)
     trigger_mass = 0.0
     for k in range(ring.trigger_nodes.shape[0]):
         trigger_mass += bodies.mass[ring.trigger_nodes[k]]
@@ -470,8 +592,9 @@ def advance_implicit(n_steps, bodies, grid, links, ring, tether, target, prm, ev
                 wk.VY[i] += hw * wk.FY[i]
                 wk.VZ[i] += hw * wk.FZ[i]
         # constraint rows, warm-started
-        prepare_thread_rows(wk, rows, grid, links, w, h)
-        warm_start_threads(wk, rows, grid, links, w, sol)
+        prepare_thread_rows(wk, rows, grid, links, w, h, sol)
+        gather_thread_forces(wk, grid, links)
+        apply_gathered(wk, w)
         prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag)
         clear_inactive_contacts(rows, sol)
         ratchet = ev[E_CLOSING_ACTIVE] == 1 and prm.lock_model == LOCK_RATCHET
