@@ -29,10 +29,9 @@ import time
 from pathlib import Path
 
 from ..bags.naming import sample_name
-from ..montecarlo import EpisodeBackend, EpisodeTask, Outcome, SampleResult, failure_category
-from ..montecarlo import _error_text as error_text
+from ..montecarlo import (EpisodeBackend, EpisodeTask, Outcome, SampleResult, error_text,
+                          failure_category)
 from .conversions import episode_result_from_msg
-from .parameters import spreads_of
 from .results import BagResultError, compare_results, result_from_bag
 
 __all__ = ["RosBackend", "result_from_bag", "BagResultError"]
@@ -74,7 +73,7 @@ class RosBackend(EpisodeBackend):
     # -- suite lifetime --------------------------------------------------------------------
     @staticmethod
     def _key(task: EpisodeTask) -> str:
-        spreads = spreads_of(task.noise_model)
+        spreads = task.noise_model.spreads()
         return json.dumps({"config": task.config.to_dict(), "spreads": spreads},
                           sort_keys=True, default=str)
 

@@ -6,20 +6,8 @@ The actuator's noise spreads default to the core's NoiseModel (SPEC section 6).
 """
 from __future__ import annotations
 
-from dataclasses import fields
-
-from ..core.noise import NoiseModel
+from ..core.noise import SPREAD_FIELDS, NoiseModel
 from .names import SERVICE, TOPICS
-
-#: NoiseModel fields that are spreads (the actuator's ``noise.<name>`` parameters)
-SPREADS: tuple[str, ...] = tuple(f.name for f in fields(NoiseModel)
-                                 if f.name not in ("orientation_axis", "scales"))
-
-
-def spreads_of(model: NoiseModel) -> dict[str, float]:
-    """The spreads of a noise model, by NoiseModel field name."""
-    return {name: float(getattr(model, name)) for name in SPREADS}
-
 
 #: parameter defaults per node (nested names use '.')
 DEFAULTS: dict[str, dict] = {
@@ -39,7 +27,7 @@ DEFAULTS: dict[str, dict] = {
     },
     "actuator_node": {
         # spreads of SPEC section 6 (each request's NoiseSettings scales them)
-        **{f"noise.{k}": v for k, v in spreads_of(NoiseModel()).items()},
+        **{f"noise.{k}": float(v) for k, v in NoiseModel().spreads().items()},
         "min_command_subscribers": 3,         # sim + monitor + recorder
         "match_timeout": 5.0,
         "frame_id": "chaser",
@@ -83,4 +71,4 @@ def topic(node, key: str) -> str:
 
 def node_spreads(node) -> dict[str, float]:
     """The actuator node's noise spreads (its ``noise.*`` parameters)."""
-    return {k: float(param(node, f"noise.{k}")) for k in SPREADS}
+    return {k: float(param(node, f"noise.{k}")) for k in SPREAD_FIELDS}

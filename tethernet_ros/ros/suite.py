@@ -29,7 +29,6 @@ from ..core.noise import NoiseModel
 from ..errors import UserError
 from . import conversions as conv
 from .names import NODES, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, SERVICE, TOPICS
-from .parameters import spreads_of
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 
@@ -74,7 +73,7 @@ def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: 
     }
     if noise_model is not None:
         params["actuator_node"].update(
-            {f"noise.{k}": v for k, v in spreads_of(noise_model).items()})
+            {f"noise.{k}": float(v) for k, v in noise_model.spreads().items()})
     for node, values in (extra or {}).items():
         params.setdefault(node, {}).update(values)
     return params

@@ -285,6 +285,9 @@ class CaptureNode(Node):
             self._rec_executor.shutdown(timeout_sec=1.0)
         except Exception:  # noqa: BLE001
             pass
+        # the recorder thread must have left rcl before the process exits: a thread still
+        # inside it when the interpreter finalizes aborts the process (SIGABRT)
+        self._rec_thread.join(timeout=2.0)
         self.recorder.destroy_node()
 
 

@@ -152,6 +152,8 @@ class SimNode(Node):
         outbox = self._outbox
 
         def publish_states(state, with_markers):       # runs in the outbox thread
+            if self.stopping():
+                return
             self.pub_clock.publish(conv.clock_msg(state.sim_time))
             self.pub_state.publish(conv.net_state_msg(state, frame))
             self.pub_pose.publish(conv.target_pose_msg(state, frame))
@@ -172,9 +174,9 @@ class SimNode(Node):
         def publish_markers(sim):
             marker_step[0] = sim.step
             state = state_arrays(sim)
-            outbox.put(lambda: self.pub_markers.publish(markers.build(state)))
+            outbox.put(lambda: self.stopping() or self.pub_markers.publish(markers.build(state)))
 
-        sim = PublishingSimulation(scenario, every, publish, self._stop.is_set)
+        sim = PublishingSimulation(scenario, every, publish, self.stopping)
         n_subs = int(self._p("min_state_subscribers"))
         if not wait_for_subscribers(self.pub_state, n_subs, float(self._p("match_timeout")),
                                     self.context):
@@ -195,12 +197,16 @@ class SimNode(Node):
             log.warning(f"episode {setup.episode_id!r} aborted at t = {sim.time:.3f} s")
             return
         except Exception as exc:  # noqa: BLE001 - e.g. publishing after shutdown began
-            if not self._stop.is_set():
+            if not self.stopping():
                 log.error(f"episode {setup.episode_id!r} failed at t = {sim.time:.3f} s: {exc}")
             return
         verdict = "success" if result.success else f"failure ({result.failure_reason})"
         log.info(f"episode {setup.episode_id!r} done: {verdict}, T = {result.completion_time:.3f} s, "
                  f"wall {result.wall_time:.2f} s")
+
+    def stopping(self) -> bool:
+        """True once the node is closing or its context shut down (SIGINT, SIGTERM)."""
+        return self._stop.is_set() or not self.context.ok()
 
     def close(self) -> None:
         self._stop.set()
