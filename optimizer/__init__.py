@@ -8,10 +8,10 @@ load the surrogate's libraries.
 from importlib import import_module
 
 _HOMES = {
-    "ConstrainedBayesOpt": "bayesopt", "Observation": "bayesopt", "OptimizeResult": "bayesopt",
-    "binomial_observation": "bayesopt", "expected_improvement_plus": "bayesopt",
-    "minimize": "bayesopt", "CheckpointError": "checkpoint", "load_checkpoint": "checkpoint",
-    "save_checkpoint": "checkpoint",
+    "ConstrainedBayesOpt": "bayesopt", "Observation": "observation",
+    "binomial_observation": "observation", "expected_improvement_plus": "acquisition",
+    "OptimizeResult": "loop", "minimize": "loop", "CheckpointError": "checkpoint",
+    "load_checkpoint": "checkpoint", "save_checkpoint": "checkpoint",
 }
 
 __all__ = list(_HOMES)

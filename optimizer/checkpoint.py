@@ -1,9 +1,8 @@
 """Atomic JSON checkpoint I/O for the optimiser.
 
-A checkpoint is one JSON document. It is written to a temporary file in the same
-directory, flushed and fsync'ed, then moved over the target with :func:`os.replace`,
-so a crash at any moment leaves either the previous complete checkpoint or the new
-complete one on disk, never a half-written file. A file that is nevertheless
+A checkpoint is one JSON document, written atomically (:mod:`optimizer.jsonio`: a crash
+at any moment leaves either the previous complete checkpoint or the new complete one on
+disk, never a half-written file). A file that is nevertheless
 unreadable (truncated by a copy, edited by hand, ...) raises :class:`CheckpointError`
 whose message names the file.
 
@@ -15,9 +14,10 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
+
+from .jsonio import atomic_write_text
 
 #: Value of the ``"format"`` key of every checkpoint written by this package.
 CHECKPOINT_FORMAT = "tethernet_ros.optimizer.checkpoint"
@@ -30,27 +30,13 @@ class CheckpointError(RuntimeError):
 
 
 def save_checkpoint(path: str | os.PathLike, state: dict[str, Any]) -> None:
-    """Write ``state`` (JSON-serialisable dict) to ``path`` atomically.
+    """Write ``state`` (JSON-serialisable dict) to ``path`` atomically
+    (:func:`optimizer.jsonio.atomic_write_text`).
 
     The keys ``format`` and ``version`` are added. Parent directories are created.
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     doc = {"format": CHECKPOINT_FORMAT, "version": CHECKPOINT_VERSION, **state}
-    text = json.dumps(doc, indent=1)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    atomic_write_text(path, json.dumps(doc, indent=1))
 
 
 def load_checkpoint(path: str | os.PathLike) -> dict[str, Any]:

@@ -1,15 +1,18 @@
-"""Results table (CSV + Markdown) and convergence-history figure of an optimisation run."""
+"""What a run writes for people: the history (CSV, one row per evaluated design), the
+results table (CSV + Markdown) and the convergence-history figure."""
 from __future__ import annotations
 
 import csv
 import math
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
 from .cases import P_SUCCESS, Case
+from .jsonio import atomic_write_text
 
-__all__ = ["write_results", "plot_convergence", "results_markdown"]
+__all__ = ["write_history", "write_results", "plot_convergence", "results_markdown"]
 
 _CSV_FIELDS = ["case", "design", "evaluation", "m_c", "L_n", "r_n", "d_L", "V_x", "V_y", "V_z",
                "d_c", "m_a_kg", "mean_T_s", "p_success_opt", "successes_opt", "samples_opt",
@@ -18,16 +21,43 @@ _CSV_FIELDS = ["case", "design", "evaluation", "m_c", "L_n", "r_n", "d_L", "V_x"
                "validated_cp_low", "validated_cp_high", "validated_mean_T_s", "selection_rule"]
 
 
+def _missing(v) -> bool:
+    """None or a non-finite float: nothing to print."""
+    return v is None or (isinstance(v, float) and not math.isfinite(v))
+
+
 def _f(v, digits=3):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "n/a"
-    return f"{v:.{digits}f}"
+    return "n/a" if _missing(v) else f"{v:.{digits}f}"
 
 
 def _num(v):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+    if _missing(v):
         return ""
     return repr(float(v)) if isinstance(v, float) else str(v)
+
+
+def _fmt(v) -> str:
+    if _missing(v):
+        return ""
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+def write_history(path: str | Path, history, variable_names: Sequence[str]) -> None:
+    """``history.csv``: one row per evaluated design (variables, objective, P*_s, the
+    samples it rests on, feasibility, m_a, mean T, acquisition diagnostics, wall time)."""
+    head = (["evaluation", "phase", *variable_names, "objective", "p_success", "successes",
+             "samples", "feasible", "mass", "mean_completion_time", "probability_feasible",
+             "eiplus_tries", "wall_time"])
+    lines = [",".join(head)]
+    for i, o in enumerate(history, 1):
+        a, info = o.acquisition, o.info
+        vals = [i, a.get("phase", ""), *[f"{v:.10g}" for v in o.x], f"{o.objective:.10g}",
+                f"{o.constraints[P_SUCCESS]:.6g}", info.get("successes", ""),
+                info.get("samples", ""), int(o.feasible), _fmt(info.get("mass")),
+                _fmt(info.get("mean_completion_time")), _fmt(a.get("probability_feasible")),
+                a.get("eiplus_tries", ""), _fmt(info.get("wall_time"))]
+        lines.append(",".join(str(v) for v in vals))
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 def write_results(csv_path: str | Path, md_path: str | Path, summary: dict) -> None:
@@ -63,7 +93,7 @@ def results_markdown(summary: dict) -> str:
            f"{summary['problem']}.", "",
            f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
            f"{summary['evaluations'] - summary['seed_points'] if summary['evaluations'] > summary['seed_points'] else 0} "
-           f"iterations), {n_opt} samples each (base seed {summary['sample_seed']}), "
+           f"iterations), {_samples_text(summary)} (base seed {summary['sample_seed']}), "
            f"{summary['feasible_evaluations']} observed feasible. Status: {summary['status']}.", ""]
     if not rows:
         out += ["No evaluated design met the constraints; nothing to validate.", ""]
@@ -75,6 +105,8 @@ def results_markdown(summary: dict) -> str:
     for r in rows:
         v = r["validation"]
         opt = f"{_f(r['p_success'], 2)} [{_f(r['ci'][0])}, {_f(r['ci'][1])}]"
+        if r["samples"] is not None and r["samples"] != n_opt:
+            opt += f" (N={r['samples']})"
         if v:
             val = f"{_f(v['p_success'])} [{_f(v['wilson'][0])}, {_f(v['wilson'][1])}]"
             cp = f"[{_f(v['clopper_pearson'][0])}, {_f(v['clopper_pearson'][1])}]"
@@ -101,6 +133,15 @@ def results_markdown(summary: dict) -> str:
                    f"P*_s {'meets' if meets else 'does NOT meet'} the 0.98 requirement.")
     out.append("mean T is over all samples (closing never triggered: T = horizon).")
     return "\n".join(out) + "\n"
+
+
+def _samples_text(summary: dict) -> str:
+    """How many samples each design got: N each, or up to N with sequential sampling."""
+    n = summary["samples"]
+    if summary.get("sampling") != "sequential":
+        return f"{n} samples each"
+    return (f"up to {n} samples each (sequential sampling: {summary['episodes']} of "
+            f"{summary['episodes_full']} drawn, {summary['episodes_saved']} saved)")
 
 
 def plot_convergence(path: str | Path, history, case: Case, best=None,

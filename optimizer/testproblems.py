@@ -3,7 +3,7 @@
 Every problem uses the optimiser's convention: minimise ``objective(x)`` subject to
 coupled constraints ``g_j(x) >= threshold_j`` (published ``c(x) <= 0`` constraints are
 rewritten as ``g = -c >= 0``) and, optionally, a cheap constraint that excludes points.
-``evaluate(x)`` returns the tuple expected by :func:`optimizer.bayesopt.minimize`.
+``evaluate(x)`` returns the tuple expected by :func:`optimizer.loop.minimize`.
 
 Reference optima are *computed*, not quoted: :meth:`TestProblem.reference_optimum`
 evaluates a dense grid, then polishes the best feasible grid points with SLSQP on the
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.optimize import minimize as _scipy_minimize
 from scipy.stats import norm
 
-from .bayesopt import binomial_observation
+from .observation import binomial_observation
 
 __all__ = ["TestProblem", "Gardner2014", "Gramacy2016", "NoisyGramacy2016", "PROBLEMS"]
 

@@ -35,9 +35,12 @@ def golden_specs() -> list:
     cfg = SimConfig.preset("spec-text", settle_time=2.0)
     r = REFERENCE_DESIGNS
     return [mc.RunSpec(r["time-min"], NoiseModel(), cfg, "time-min"),
-            mc.RunSpec(r["suboptimal"], NoiseModel().with_scales(speed=3.0), cfg, "suboptimal x3 speed"),
-            mc.RunSpec(r["baseline"], NoiseModel(), cfg.replace(horizon=15.0), "baseline 15 s horizon"),
-            mc.RunSpec(r["mass-min"], NoiseModel(), cfg.replace(success_locked_pairs=1), "mass-min n_L >= 1")]
+            mc.RunSpec(r["suboptimal"], NoiseModel().with_scales(speed=3.0), cfg,
+                       "suboptimal x3 speed"),
+            mc.RunSpec(r["baseline"], NoiseModel(), cfg.replace(horizon=15.0),
+                       "baseline 15 s horizon"),
+            mc.RunSpec(r["mass-min"], NoiseModel(), cfg.replace(success_locked_pairs=1),
+                       "mass-min n_L >= 1")]
 
 
 def exact(v):

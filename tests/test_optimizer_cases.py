@@ -1,5 +1,5 @@
-"""Case 1 / Case 2 on the Monte Carlo evaluator (optimizer.cases, optimizer.run) and
-`tethernet optimize`.
+"""Case 1 / Case 2 on the Monte Carlo evaluator (optimizer.cases, optimizer.evaluator,
+optimizer.run through tethernet_ros.design_problem) and `tethernet optimize`.
 
 Fast checks run on a synthetic episode backend (tests/optimizer_fakes.py: the
 EpisodeBackend interface with a smooth success probability, no physics).  The end-to-end
@@ -19,14 +19,17 @@ import numpy as np
 import pytest
 
 from optimizer import binomial_observation
-from optimizer.cases import CASE_MASS, CASE_TIME, DesignEvaluator, get_case, select_best
-from optimizer.run import RunError, run_optimization
 from optimizer.bayesopt import ConstrainedBayesOpt
+from optimizer.cases import CASE_MASS, CASE_TIME, get_case
+from optimizer.evaluator import DesignEvaluator
+from optimizer.run import RunError
+from optimizer.selection import select_best
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros import cli
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import (DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
                                        system_mass)
+from tethernet_ros.design_problem import SimulatorProblem, optimize_design
 from tethernet_ros.montecarlo import EpisodeBackend, InProcessBackend, sample_seed
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -41,12 +44,13 @@ def test_case_definitions():
     assert get_case("time") is CASE_TIME and get_case("2") is CASE_TIME
     with pytest.raises(ValueError, match="allowed cases"):
         get_case("speed")
+    problem = SimulatorProblem(SyntheticBackend())
+    assert problem.bounds == [DESIGN_BOUNDS[n] for n in VARIABLE_NAMES]
+    assert len(problem.bounds) == 8
     for case in (CASE_MASS, CASE_TIME):
-        assert case.bounds == [DESIGN_BOUNDS[n] for n in VARIABLE_NAMES]
-        assert len(case.bounds) == 8
         assert case.constraints == {"p_success": 0.98}
-    assert CASE_MASS.cheap_constraint(1390.0) is None
-    ok = CASE_TIME.cheap_constraint(1390.0)
+    assert CASE_MASS.cheap_constraint(problem.mass) is None
+    ok = CASE_TIME.cheap_constraint(problem.mass)
     tm = REFERENCE_DESIGNS["time-min"]
     assert tm.mass() < 15.0 and ok(tm.to_vector())
     heavy = Design(m_c=3.9, L_n=20.0, r_n=0.002, d_L=20.0, V_e=(2, 2, 5), d_c=0.0)
@@ -54,14 +58,18 @@ def test_case_definitions():
     # the limit is exactly m_a <= 15 kg with the configured density
     x = np.array([3.0, 20.0, 0.001, 20, 2, 2, 5, 0])
     rho = (15.0 - 12.0) / (38 * 20.0 * math.pi * 0.001**2)
-    assert CASE_TIME.cheap_constraint(rho)(x)
-    assert not CASE_TIME.cheap_constraint(rho * 1.001)(x)
+
+    def mass_at(density):
+        return SimulatorProblem(SyntheticBackend(), SimConfig(density=density)).mass
+
+    assert CASE_TIME.cheap_constraint(mass_at(rho))(x)
+    assert not CASE_TIME.cheap_constraint(mass_at(rho * 1.001))(x)
 
 
 def test_evaluator_observation_common_random_numbers():
     be = SyntheticBackend()
     cfg = SimConfig(**SHORT)
-    ev = DesignEvaluator(CASE_MASS, be, samples=20, base_seed=4, config=cfg)
+    ev = DesignEvaluator(CASE_MASS, SimulatorProblem(be, cfg), samples=20, base_seed=4)
     x1 = REFERENCE_DESIGNS["mass-min"].to_vector()
     x2 = REFERENCE_DESIGNS["suboptimal"].to_vector()
     obj, cons, var, info = ev(x1)
@@ -74,23 +82,23 @@ def test_evaluator_observation_common_random_numbers():
     assert seeds[:20] == seeds[20:] == [sample_seed(4, i) for i in range(20)]  # CRN
     assert ev.calls == 2 and len(be.tasks) == 40
     # Case 2: objective is the mean completion time over the samples
-    ev2 = DesignEvaluator(CASE_TIME, SyntheticBackend(), samples=5, base_seed=0, config=cfg)
+    ev2 = DesignEvaluator(CASE_TIME, SimulatorProblem(SyntheticBackend(), cfg), samples=5,
+                          base_seed=0)
     obj2, _, _, info2 = ev2(REFERENCE_DESIGNS["time-min"].to_vector())
     assert obj2 == pytest.approx(info2["mean_completion_time"])
 
 
 def test_mass_constraint_is_never_simulated(tmp_path):
     be = SyntheticBackend()
-    ev = DesignEvaluator(CASE_TIME, be, samples=4, base_seed=0)
+    ev = DesignEvaluator(CASE_TIME, SimulatorProblem(be), samples=4, base_seed=0)
     heavy = np.array([4.0, 22.0, 0.01, 20, 2, 2, 5, 0])
     with pytest.raises(ValueError, match="must not be simulated"):
         ev(heavy)
     assert be.tasks == []
-    s = run_optimization("time", iterations=6, seed_points=10, samples=4, backend=be,
-                         run_dir=tmp_path / "run", validation_samples=0,
-                         optimizer_options=FAST)
-    assert s["evaluations"] == 16
-    assert len(be.tasks) == 16 * 4                    # one simulation per sample, nothing else
+    s = optimize_design("time", iterations=6, seed_points=10, samples=4, backend=be,
+                        run_dir=tmp_path / "run", validation_samples=0, optimizer_options=FAST)
+    assert s["evaluations"] == 16 and s["sampling"] == "sequential"
+    assert len(be.tasks) == s["episodes"] <= 16 * 4   # one simulation per sample, nothing else
     masses = {t.key: t.design.mass(t.config.density) for t in be.tasks}
     assert len(masses) == 16 and max(masses.values()) <= 15.0
 
@@ -123,26 +131,36 @@ def _strip_wall(lines):
     return [",".join(line.split(",")[:-1]) for line in lines]  # last column: wall time
 
 
-def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path):
+@pytest.mark.parametrize("sequential", [True, False])
+def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequential):
     kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
-              optimizer_options=FAST)
+              optimizer_options=FAST, sequential=sequential)
     full_be = SyntheticBackend()
-    full = run_optimization("mass", backend=full_be, run_dir=tmp_path / "full", **kw)
+    full = optimize_design("mass", backend=full_be, run_dir=tmp_path / "full", **kw)
     assert full["best_design"] is not None and full["validation"]["samples"] == 20
-    for kill_after in (25, 95):                  # mid seed phase, mid model-based phase
+    per_design = np.cumsum([int(line.split(",")[13])
+                            for line in _history(tmp_path / "full")[1:]])
+    assert per_design[-1] == full["episodes"] == len(full_be.tasks) - 20
+    mid_model_phase = (per_design[5] + per_design[-1]) // 2
+    assert 25 < per_design[5] < mid_model_phase < per_design[-1]
+    for kill_after in (25, mid_model_phase):     # mid seed phase, mid model-based phase
         d = tmp_path / f"killed{kill_after}"
         with pytest.raises(KeyboardInterrupt):
-            run_optimization("mass", backend=SyntheticBackend(fail_after=kill_after), run_dir=d, **kw)
+            optimize_design("mass", backend=SyntheticBackend(fail_after=kill_after), run_dir=d,
+                            **kw)
         with pytest.raises(RunError, match="already holds a run"):
-            run_optimization("mass", backend=SyntheticBackend(), run_dir=d, **kw)
+            optimize_design("mass", backend=SyntheticBackend(), run_dir=d, **kw)
         with pytest.raises(RunError, match="'samples'"):
-            run_optimization("mass", backend=SyntheticBackend(), run_dir=d, resume=True,
-                             **{**kw, "samples": 11})
+            optimize_design("mass", backend=SyntheticBackend(), run_dir=d, resume=True,
+                            **{**kw, "samples": 11})
+        with pytest.raises(RunError, match="'sequential'"):
+            optimize_design("mass", backend=SyntheticBackend(), run_dir=d, resume=True,
+                            **{**kw, "sequential": not sequential})
         be = SyntheticBackend()
-        resumed = run_optimization("mass", backend=be, run_dir=d, resume=True, **kw)
+        resumed = optimize_design("mass", backend=be, run_dir=d, resume=True, **kw)
         with pytest.raises(RunError, match="holds no run"):
-            run_optimization("mass", backend=SyntheticBackend(), run_dir=tmp_path / "typo",
-                             resume=True, **kw)
+            optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "typo",
+                            resume=True, **kw)
         # nothing simulated twice: the in-flight design's finished samples were reused
         assert kill_after + len(be.tasks) == len(full_be.tasks)
         assert _strip_wall(_history(d)) == _strip_wall(_history(tmp_path / "full"))
@@ -151,10 +169,10 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path):
             assert resumed[key] == full[key], key
     # resuming a finished run re-does nothing (and may extend the budget)
     be = SyntheticBackend()
-    again = run_optimization("mass", backend=be, run_dir=tmp_path / "full", resume=True, **kw)
+    again = optimize_design("mass", backend=be, run_dir=tmp_path / "full", resume=True, **kw)
     assert be.tasks == [] and again["best_design"] == full["best_design"]
-    more = run_optimization("mass", backend=be, run_dir=tmp_path / "full", resume=True,
-                            **{**kw, "iterations": 8})
+    more = optimize_design("mass", backend=be, run_dir=tmp_path / "full", resume=True,
+                           **{**kw, "iterations": 8})
     assert more["evaluations"] == 14 and 0 < len(be.tasks) <= 40  # (+ validation if the best moved)
 
 
@@ -216,7 +234,12 @@ def test_cli_optimize_json_tiny_real_run(cli_run):
     assert "validated P*_s (N=3)" in md and "best (Case 1)" in md and "m_a (kg)" in md
     rows = (run_dir / "results.csv").read_text().splitlines()
     assert rows[0].startswith("case,design,evaluation,m_c") and len(rows) == 2
-    assert len((run_dir / "samples.jsonl").read_text().splitlines()) == 15
+    # sequential sampling (the default): one sample record per sample the observations rest
+    # on (in-process: one sample per batch, so none is drawn past a decision)
+    assert d["sampling"] == "sequential" and d["episodes_full"] == 15
+    samples_column = [int(line.split(",")[13]) for line in _history(run_dir)[1:]]
+    assert sum(samples_column) == d["episodes"] <= 15
+    assert len((run_dir / "samples.jsonl").read_text().splitlines()) == d["episodes"]
 
 
 def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path):
@@ -224,12 +247,13 @@ def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path
     cfg = SimConfig.from_dict(SHORT)
     kw = dict(TINY, config=cfg, optimizer_options=FAST)
     run_dir = tmp_path / "killed"
-    with pytest.raises(KeyboardInterrupt):           # killed in evaluation 4 (2nd sample)
-        run_optimization("mass", backend=KillAfter(InProcessBackend(), 10), run_dir=run_dir, **kw)
-    assert len(_history(run_dir)) == 1 + 3
+    with pytest.raises(KeyboardInterrupt):           # killed after 10 samples
+        optimize_design("mass", backend=KillAfter(InProcessBackend(), 10), run_dir=run_dir, **kw)
+    per_design = np.cumsum([int(line.split(",")[13]) for line in _history(cli_dir)[1:]])
+    assert len(_history(run_dir)) == 1 + int(np.sum(per_design <= 10))
     be = KillAfter(InProcessBackend(), 10**9)
-    s = run_optimization("mass", backend=be, run_dir=run_dir, resume=True, **kw)
-    assert be.count == 15 - 10 + 3                   # rest of the run + validation only
+    s = optimize_design("mass", backend=be, run_dir=run_dir, resume=True, **kw)
+    assert be.count == d["episodes"] - 10 + 3        # rest of the run + validation only
     assert _strip_wall(_history(run_dir)) == _strip_wall(_history(cli_dir))
     for key in ("best_design", "best_objective", "p_success", "mass", "validation"):
         assert s[key] == d[key], key

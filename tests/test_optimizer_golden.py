@@ -3,7 +3,8 @@ bit for bit after it: the whole history (designs, objectives, P*_s and their var
 feasibility, acquisition diagnostics, evaluation info), the optimiser's random state, the
 chosen design, its validation and the results table.
 
-Three runs with full sampling (every design gets all its samples): Case 1 and Case 2 on the
+Three runs with full sampling (every design gets all its samples; ``sequential=False``
+since sequential sampling, issue 10, became the default): Case 1 and Case 2 on the
 synthetic episode backend (tests/optimizer_fakes.py, no physics), and a tiny real Case 1
 run in-process on the ``spec-text`` model with a 2 s settle time, a 15 s horizon and a
 relaxed success rule.  Left out: wall times, and the run key (a hash of the source of
@@ -22,9 +23,9 @@ from pathlib import Path
 
 import pytest
 
-from optimizer.run import run_optimization
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros.core.config import SimConfig
+from tethernet_ros.design_problem import optimize_design
 from tethernet_ros.montecarlo import InProcessBackend
 
 GOLDEN = os.path.join(os.path.dirname(__file__), "data", "golden_optimizer.json")
@@ -62,8 +63,8 @@ def run_golden(name: str) -> dict:
         backend, config = InProcessBackend(), SimConfig.preset("spec-text", **SHORT)
     with tempfile.TemporaryDirectory() as tmp:
         run_dir = Path(tmp) / "run"
-        summary = run_optimization(backend=backend, run_dir=run_dir, config=config,
-                                   optimizer_options=FAST, **kw)
+        summary = optimize_design(backend=backend, run_dir=run_dir, config=config,
+                                  optimizer_options=FAST, sequential=False, **kw)
         state = json.loads((run_dir / "checkpoint.json").read_text())["optimizer"]
         history_csv = [",".join(line.split(",")[:-1])  # last column: wall time
                        for line in (run_dir / "history.csv").read_text().splitlines()]

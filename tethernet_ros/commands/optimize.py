@@ -4,8 +4,10 @@ Case 1 (``--case mass``): minimise m_a s.t. P*_s >= 0.98.  Case 2 (``--case time
 minimise mean T s.t. P*_s >= 0.98 and m_a <= 15 kg.  Every evaluation is checkpointed in
 the run directory (``--resume`` continues a killed run); the best feasible design is then
 validated with fresh samples and the results table (results.md / results.csv) and the
-convergence history (convergence.png) are written next to the checkpoint.  See
-:mod:`optimizer.run` for the files and the seeds.
+convergence history (convergence.png) are written next to the checkpoint.  A design's
+sampling stops as soon as its feasibility at --samples is decided (--full-sampling: never).
+See :mod:`optimizer.run` for the files, the seeds and the sampling, and
+:mod:`tethernet_ros.design_problem` for the simulator behind the optimiser.
 """
 from __future__ import annotations
 
@@ -36,6 +38,10 @@ def add_arguments(p):
                    help="Monte Carlo samples per design during optimisation (default 100)")
     p.add_argument("--validation-samples", type=int, default=1000, metavar="V",
                    help="fresh samples to validate the best design with (default 1000; 0: none)")
+    p.add_argument("--full-sampling", action="store_true",
+                   help="draw all --samples of every design (default: stop a design's "
+                        "sampling as soon as its feasibility at --samples is decided, e.g. "
+                        "at the 3rd failure for 100 samples and P*_s >= 0.98)")
     add_backend_arguments(p)
     p.add_argument("--via", choices=("library", "ros"), default="library",
                    help="ros: run every episode through the ROS 2 suite's RunCapture service "
@@ -169,7 +175,9 @@ def _duration(s: float) -> str:
 def run(args) -> int:
     from optimizer.cases import get_case
     from optimizer.checkpoint import CheckpointError
-    from optimizer.run import RunError, default_run_dir, run_optimization
+    from optimizer.run import RunError, default_run_dir
+
+    from ..design_problem import optimize_design
 
     from ..errors import UserError
 
@@ -199,12 +207,13 @@ def run(args) -> int:
     bar = OptimizeProgress(case, args.no_progress)
     t0 = time.perf_counter()
     try:
-        summary = run_optimization(
+        summary = optimize_design(
             case, iterations=args.iterations, seed_points=args.seed_points,
             samples=args.samples, backend=backend, run_dir=run_dir, resume=args.resume,
             validation_samples=args.validation_samples, config=config, noise_model=model,
             seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
-            compare_reference=args.compare_reference, progress=bar, optimizer_options=options)
+            sequential=not args.full_sampling, compare_reference=args.compare_reference,
+            progress=bar, optimizer_options=options)
     except (RunError, CheckpointError) as exc:
         raise UserError(str(exc)) from None
     finally:
@@ -217,8 +226,13 @@ def run(args) -> int:
         return 0
     md = Path(summary["files"]["results_md"]).read_text(encoding="utf-8")
     print(md.rstrip())
-    print(f"\n{summary['evaluations']} designs x {summary['samples']} samples on "
-          f"{summary['backend']}, {wall:.1f} s wall"
+    if summary["sampling"] == "sequential":
+        drawn = (f"{summary['evaluations']} designs, {summary['episodes']} of "
+                 f"{summary['episodes_full']} samples drawn (sequential sampling saved "
+                 f"{summary['episodes_saved']})")
+    else:
+        drawn = f"{summary['evaluations']} designs x {summary['samples']} samples"
+    print(f"\n{drawn} on {summary['backend']}, {wall:.1f} s wall"
           + (f" ({summary['seconds_per_evaluation']:.1f} s per simulated design)"
              if summary.get("seconds_per_evaluation") else ""))
     files = summary["files"]

@@ -56,7 +56,8 @@ class EpisodeBackend(abc.ABC):
     workers = 1
 
     @abc.abstractmethod
-    def map(self, tasks: Iterable[EpisodeTask], max_in_flight: int | None = None) -> Iterator[Outcome]:
+    def map(self, tasks: Iterable[EpisodeTask],
+            max_in_flight: int | None = None) -> Iterator[Outcome]:
         ...
 
     def close(self) -> None:

@@ -27,7 +27,8 @@ def make_backend(workers: int | None = None, scheduler: str | None = None) -> Ep
     return ProcessPoolBackend(workers)
 
 
-def run_tasks(backend: EpisodeBackend, tasks: Sequence[EpisodeTask], retries: int = 1) -> Iterator[SampleResult]:
+def run_tasks(backend: EpisodeBackend, tasks: Sequence[EpisodeTask],
+              retries: int = 1) -> Iterator[SampleResult]:
     """Run tasks on a backend and yield one :class:`SampleResult` per task as it finishes.
 
     A task whose worker raised is retried (up to ``retries`` times) with the others; one

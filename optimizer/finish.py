@@ -1,0 +1,107 @@
+"""The end of a run: choose the best design, validate it with fresh samples, build the
+summary and write the results table and the convergence figure."""
+from __future__ import annotations
+
+from .cases import P_SUCCESS
+from .report import plot_convergence, write_results
+from .selection import select_best
+
+__all__ = ["finish_run", "sampling_counts"]
+
+
+def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
+               compare_reference) -> dict:
+    """The run's summary (see :func:`optimizer.run.run_optimization`); writes
+    results.csv / results.md and convergence.png."""
+    best, rule = select_best(opt, min_probability)
+    feasible = [o for o in opt.history if o.feasible]
+    validation = None
+    rows = []
+    val_n = settings["validation_samples"]
+
+    def validate(x, label):
+        def prog(done, total):
+            emit({"stage": "validation", "label": label, "done": done, "total": total})
+        return problem.evaluate(x, val_n, settings["validation_seed"],
+                                results_path=paths["validation"], label=label, progress=prog)
+
+    if best is not None:
+        vres = validate(best.x, "best") if (val_n and not stopped) else None
+        validation = _validation_dict(vres)
+        rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
+                         validation, evaluation=_index(opt.history, best)))
+    ref = problem.reference_design(case.reference) if case.reference else None
+    if compare_reference and not stopped and ref is not None:
+        emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
+              "total": evaluator.samples})
+        r = evaluator.estimate(ref, label=case.reference)
+        info = {"successes": r.successes, "samples": r.n_samples, "p_success": r.p_success,
+                "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
+                "mean_completion_time": r.mean_completion_time}
+        vref = _validation_dict(validate(ref, case.reference) if val_n else None)
+        rows.append(_row(f"reference {case.reference} (SPEC 8)", problem.design_dict(ref), info,
+                         vref, evaluation=None))
+
+    summary = {
+        "case": case.name, "case_number": case.number, "problem": case.describe(),
+        "status": "stopped" if stopped else "complete",
+        "evaluations": len(opt.history), "seed_points": opt.n_initial,
+        "iterations": opt.n_iterations, "samples": settings["samples"],
+        "sample_seed": settings["sample_seed"], "seed": settings["seed"],
+        "feasible_evaluations": len(feasible), "selection_rule": rule,
+        "objective_name": case.objective, "objective_unit": case.objective_unit,
+        "best_design": None, "best_vector": None, "best_evaluation": None,
+        "best_objective": None, "p_success": None, "p_success_ci": None, "successes": None,
+        "mass": None, "mean_completion_time": None, "validation": validation,
+        "table": rows, "run_dir": str(paths["settings"].parent),
+        "files": {k: str(v) for k, v in paths.items()}, "backend": problem.describe(),
+        "variables": list(problem.variable_names),
+        **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
+    }
+    if best is not None:
+        summary.update({
+            "best_design": problem.design_dict(best.x), "best_vector": [float(v) for v in best.x],
+            "best_evaluation": _index(opt.history, best), "best_objective": best.objective,
+            "p_success": best.constraints[P_SUCCESS], "successes": best.info.get("successes"),
+            "p_success_ci": [best.info.get("ci_low"), best.info.get("ci_high")],
+            "mass": best.info.get("mass"),
+            "mean_completion_time": best.info.get("mean_completion_time"),
+        })
+    write_results(paths["results_csv"], paths["results_md"], summary)
+    plot_convergence(paths["convergence"], opt.history, case, best,
+                     validation["p_success"] if validation else None)
+    return summary
+
+
+def sampling_counts(history, samples: int, sequential: bool) -> dict:
+    """Samples the observations rest on (``episodes``) against ``samples`` for every
+    design (``episodes_full``), and the difference (``episodes_saved``).  Samples drawn
+    past a decision point (a batch's rest) are not counted: they depend on the worker
+    count."""
+    used = sum(int(o.info.get("samples", samples)) for o in history)
+    full = len(history) * int(samples)
+    return {"sampling": "sequential" if sequential else "full", "episodes": used,
+            "episodes_full": full, "episodes_saved": full - used}
+
+
+def _index(history, obs) -> int:
+    """1-based evaluation number of ``obs`` (by identity)."""
+    return next(i for i, o in enumerate(history, 1) if o is obs)
+
+
+def _validation_dict(r) -> dict | None:
+    if r is None:
+        return None
+    return {"samples": r.n_samples, "base_seed": r.base_seed, "successes": r.successes,
+            "p_success": r.p_success, "wilson": [r.ci_low, r.ci_high],
+            "clopper_pearson": [r.cp_low, r.cp_high],
+            "mean_completion_time": r.mean_completion_time, "mass": r.mass,
+            "failures_by_reason": dict(r.failures_by_reason), "reused": r.reused}
+
+
+def _row(label, design: dict, info, validation, evaluation) -> dict:
+    return {"design": label, "evaluation": evaluation, "x": design,
+            "mass": info.get("mass"), "mean_completion_time": info.get("mean_completion_time"),
+            "p_success": info.get("p_success"), "successes": info.get("successes"),
+            "samples": info.get("samples"), "ci": [info.get("ci_low"), info.get("ci_high")],
+            "validation": validation}

@@ -1,0 +1,84 @@
+"""Sequential Monte Carlo: stop sampling a design as soon as its feasibility is decided.
+
+A design is feasible when its P*_s observed over N = N_MC samples, k / N, is at least C_P,
+that is when at most F of the N samples fail, F being the largest f with
+``(N - f) / N >= C_P`` (the optimiser's own test; F = 2 for N = 100 and C_P = 0.98).
+Drawn in index order (common random numbers), the samples decide that verdict early:
+
+* **infeasible at failure F + 1**: whatever the remaining samples give, k / N < C_P;
+* **feasible once failures + remaining samples <= F**: even if every remaining sample
+  failed, k / N >= C_P.  This saves at most F samples, and only designs with (almost) no
+  failures, so it is optional (``stop_when_feasible``): Case 1 uses it (its objective m_a
+  is exact); Case 2 does not, so that the mean T of every feasible design is taken over
+  the same N samples.
+
+The estimate then rests on the m samples drawn up to the decision (m <= N): P*_s = k / m
+with the binomial variance of :func:`~optimizer.observation.binomial_observation` for
+those m samples (Laplace-smoothed, so that an estimate at k = 0 or k = m still has a
+variance), and, for Case 2, the mean T of those m samples.  An early-stopped infeasible
+design is observed infeasible (k / m <= (N - F - 1) / N < C_P) and an early-stopped
+feasible one feasible, so the verdict is the one all N samples would have given.
+
+The rule sees the samples in index order and answers with the shortest deciding prefix,
+so the result never depends on how many samples were drawn at once or how fast they came.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+__all__ = ["SequentialRule", "allowed_failures"]
+
+
+def allowed_failures(n_samples: int, threshold: float) -> int:
+    """F: the most failures among ``n_samples`` with ``(n - F) / n >= threshold``
+    (-1 when even ``n`` successes fall short of ``threshold``)."""
+    n = int(n_samples)
+    f = n
+    while f >= 0 and not (n - f) / n >= threshold:
+        f -= 1
+    return f
+
+
+@dataclass(frozen=True)
+class SequentialRule:
+    """Stopping rule for N_MC = ``n_samples`` samples and C_P = ``threshold``.
+
+    Call it with the successes of samples 0..n-1 (index order); it returns the length of
+    the shortest prefix that decides feasibility at ``n_samples``, or None when the
+    samples given do not decide it yet.  ``n_samples`` samples always decide.
+    """
+
+    n_samples: int
+    threshold: float
+    stop_when_feasible: bool = True
+
+    def __post_init__(self):
+        if int(self.n_samples) < 1:
+            raise ValueError(f"n_samples: got {self.n_samples!r}; must be >= 1")
+
+    @property
+    def allowed_failures(self) -> int:
+        return allowed_failures(self.n_samples, self.threshold)
+
+    def __call__(self, successes: Sequence[bool]) -> int | None:
+        n, f_max = int(self.n_samples), self.allowed_failures
+        failures = 0
+        for m, ok in enumerate(successes[:n], 1):
+            failures += not ok
+            if failures > f_max:
+                return m                                       # infeasible
+            if self.stop_when_feasible and failures + (n - m) <= f_max:
+                return m                                       # feasible
+            if m == n:
+                return m
+        return None
+
+    def verdict(self, successes: Sequence[bool]) -> str:
+        """'infeasible' or 'feasible' for samples that decide (see :meth:`__call__`),
+        '' when they do not."""
+        m = self(successes)
+        if m is None:
+            return ""
+        failures = sum(1 for ok in successes[:m] if not ok)
+        return "infeasible" if failures > self.allowed_failures else "feasible"

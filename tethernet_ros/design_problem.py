@@ -1,0 +1,93 @@
+"""The tether-net simulator as the optimiser's design problem.
+
+:class:`SimulatorProblem` implements :class:`optimizer.problem.DesignProblem`: the design
+vector X = [m_c, L_n, r_n, d_L, V_x, V_y, V_z, d_c] within ``DESIGN_BOUNDS``, the exact
+system mass m_a, and the reliability of a design from the Monte Carlo evaluator
+(:func:`tethernet_ros.montecarlo.evaluate`) on an
+:class:`~tethernet_ros.montecarlo.EpisodeBackend`.  :func:`optimize_design` runs a Case on
+it (``tethernet optimize`` calls it).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import Callable, Sequence
+
+import numpy as np
+
+from optimizer.run import run_optimization
+
+from . import montecarlo
+from .core.config import SimConfig
+from .core.design import DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABLE_NAMES, Design, system_mass
+from .core.noise import NoiseModel
+
+__all__ = ["SimulatorProblem", "optimize_design"]
+
+
+class SimulatorProblem:
+    """Case 1 / Case 2 designs evaluated by simulation (see the module docstring).
+
+    backend: where the episodes run (kept open; the caller closes it); config, noise_model:
+    every episode's SimConfig and NoiseModel (SPEC defaults).
+    """
+
+    variable_names: Sequence[str] = VARIABLE_NAMES
+
+    def __init__(self, backend: montecarlo.EpisodeBackend, config: SimConfig | None = None,
+                 noise_model: NoiseModel | None = None):
+        self.backend = backend
+        self.config = config or SimConfig()
+        self.noise_model = noise_model or NoiseModel()
+        self.bounds = [tuple(DESIGN_BOUNDS[n]) for n in VARIABLE_NAMES]
+        self.horizon = float(self.config.horizon)
+
+    def mass(self, x) -> float:
+        """m_a (kg) of design vector ``x`` with the configured thread density."""
+        return system_mass(float(x[0]), float(x[1]), float(x[2]), float(self.config.density))
+
+    def evaluate(self, x, n_samples: int, base_seed: int, *, stop=None, results_path=None,
+                 label: str = "", progress: Callable[[int, int], None] | None = None
+                 ) -> montecarlo.MonteCarloResult:
+        """:func:`tethernet_ros.montecarlo.evaluate` of design vector ``x``."""
+        def prog(done, total, _result):
+            if progress is not None:
+                progress(done, total)
+
+        return montecarlo.evaluate(Design.from_vector(x), n_samples, base_seed, self.noise_model,
+                                   self.config, self.backend, results_path=results_path,
+                                   label=label, progress=prog, stop=stop)
+
+    def design_dict(self, x) -> dict:
+        return Design.from_vector(x).to_dict()
+
+    def reference_design(self, name: str) -> np.ndarray | None:
+        """X of a SPEC section 8 reference design (None for an unknown name)."""
+        ref = REFERENCE_DESIGNS.get(name)
+        return None if ref is None else ref.to_vector()
+
+    def settings(self) -> dict:
+        return {"config": self.config.to_dict(), "noise_model": asdict(self.noise_model),
+                "model_version": montecarlo.model_version()}
+
+    def describe(self) -> str:
+        return self.backend.describe()
+
+
+def optimize_design(case, *, backend: montecarlo.EpisodeBackend | None = None,
+                    config: SimConfig | None = None, noise_model: NoiseModel | None = None,
+                    **run_options) -> dict:
+    """:func:`optimizer.run.run_optimization` of ``case`` on a :class:`SimulatorProblem`.
+
+    backend: None -> a process pool on all cores, closed at the end (a given backend stays
+    open).  run_options: the other arguments of ``run_optimization`` (iterations,
+    seed_points, samples, run_dir, resume, validation_samples, seeds, sequential, ...).
+    Returns the run's summary.
+    """
+    own = backend is None
+    backend = backend or montecarlo.ProcessPoolBackend()
+    try:
+        return run_optimization(case, SimulatorProblem(backend, config, noise_model),
+                                **run_options)
+    finally:
+        if own:
+            backend.close()
