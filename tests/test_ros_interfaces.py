@@ -150,6 +150,11 @@ def test_defaults():
     assert len(s.positions) == 0 and len(s.locked) == 0 and s.closing_active is False
     assert s.target_pose.orientation.w == 1.0
     assert RunCapture.Response().result.failure_reason == ""
+    # noise settings left out of a request are the nominal spreads, not "no noise"
+    n = RunCapture.Request().noise
+    assert [n.distance_scale, n.orientation_scale, n.speed_scale, n.polar_scale,
+            n.azimuth_scale, n.closing_scale] == [1.0] * 6
+    assert n.orientation_axis == "z" and RunCapture.Request().nominal is False
 
 
 @pytest.fixture()
