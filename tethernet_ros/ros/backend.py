@@ -4,9 +4,9 @@
 :class:`~tethernet_ros.montecarlo.EpisodeTask` becomes one RunCapture service call on a
 long-lived :class:`~tethernet_ros.ros.suite.RosSuite` (the four nodes as processes),
 with the episode recorded to an MCAP bag.  The sample's result is then **read back from
-the bag** (:func:`tethernet_ros.ros.results.result_from_bag`): the simulation's EpisodeResult message on
-the result topic, checked against the monitor's verdict in the same bag and against the
-service response; a bag that is incomplete, lacks the result or disagrees is a failed
+the bag** (:func:`tethernet_ros.ros.results.result_from_bag`): the simulation's
+EpisodeResult message on the result topic, checked against the monitor's verdict in the
+same bag and against the service response; a bag that is incomplete, lacks the result or disagrees is a failed
 task (the evaluator retries it once, then records a worker error).  So the optimiser and
 ``tethernet validate`` can drive episodes through the services and read the logs, and the
 numbers are the in-process ones bit for bit (same core, same noise sampler).
