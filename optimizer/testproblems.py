@@ -22,7 +22,8 @@ from scipy.stats import norm
 
 from .observation import binomial_observation
 
-__all__ = ["TestProblem", "Gardner2014", "Gramacy2016", "NoisyGramacy2016", "PROBLEMS"]
+__all__ = ["TestProblem", "Gardner2014", "Gramacy2016", "NoisyGramacy2016", "BernoulliGramacy2016",
+           "PROBLEMS"]
 
 
 class TestProblem:
@@ -208,4 +209,36 @@ class NoisyGramacy2016(TestProblem):
         return np.array([margin - _gramacy_c1(x), -_gramacy_c2(x)])
 
 
-PROBLEMS = {p.name: p for p in (Gardner2014, Gramacy2016, NoisyGramacy2016)}
+class BernoulliGramacy2016(NoisyGramacy2016):
+    """:class:`NoisyGramacy2016` observed sample by sample, as the Monte Carlo evaluator
+    observes a design: sample ``i`` of every design succeeds when ``u_i < p(x)``, ``u_i``
+    the i-th uniform of ``numpy.random.default_rng(noise_seed)`` (common random numbers:
+    the same draws for every design).  ``evaluate(x)`` rests on all N samples;
+    ``evaluate(x, rule)`` draws them in index order until ``rule`` (an
+    :class:`~optimizer.sequential.SequentialRule`) decides, and ``info["samples"]`` says
+    how many the estimate rests on.
+    """
+
+    name = "bernoulli_gramacy2016"
+
+    def __init__(self, n_samples: int = 100, p_min: float = 0.98, s: float = 0.1,
+                 noise_seed: int = 0):
+        super().__init__(n_samples, p_min, s, noise_seed)
+        self._u = np.random.default_rng(noise_seed).random(n_samples)
+
+    def successes(self, x) -> np.ndarray:
+        """Success of samples 0..N-1 of design ``x`` (bool array)."""
+        return self._u < self.success_probability(x)
+
+    def evaluate(self, x, rule=None):
+        x = np.asarray(x, dtype=float)
+        ok = self.successes(x)
+        m = len(ok) if rule is None else rule(ok)
+        k = int(ok[:m].sum())
+        value, var = binomial_observation(k, m)
+        return self.objective(x), {"p_success": value}, {"p_success": var}, {
+            "successes": k, "samples": m, "p_true": self.success_probability(x)}
+
+
+PROBLEMS = {p.name: p for p in (Gardner2014, Gramacy2016, NoisyGramacy2016,
+                                BernoulliGramacy2016)}

@@ -20,13 +20,20 @@ def synthetic_probability(design) -> float:
 
 
 class SyntheticBackend(EpisodeBackend):
+    """``workers``: the parallelism it reports (the batch size of sequential sampling);
+    ``batches``: the number of tasks of each ``map`` call."""
+
     name = "synthetic"
 
-    def __init__(self, fail_after: int | None = None):
+    def __init__(self, fail_after: int | None = None, workers: int = 1):
         self.tasks = []
+        self.batches = []
         self.fail_after = fail_after
+        self.workers = workers
 
     def map(self, tasks, max_in_flight=None):
+        tasks = list(tasks)
+        self.batches.append(len(tasks))
         for t in tasks:
             if self.fail_after is not None and len(self.tasks) >= self.fail_after:
                 raise KeyboardInterrupt("simulated kill")
