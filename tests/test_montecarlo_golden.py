@@ -15,6 +15,7 @@ import json
 import os
 import sys
 
+from golden import exact
 from tethernet_ros import montecarlo as mc
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
@@ -41,17 +42,6 @@ def golden_specs() -> list:
                        "baseline 15 s horizon"),
             mc.RunSpec(r["mass-min"], NoiseModel(), cfg.replace(success_locked_pairs=1),
                        "mass-min n_L >= 1")]
-
-
-def exact(v):
-    """Floats as repr strings (bit for bit, NaN included), recursively."""
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, dict):
-        return {k: exact(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [exact(x) for x in v]
-    return v
 
 
 def run_golden() -> list:

@@ -66,6 +66,17 @@ def test_case_definitions():
     assert not CASE_TIME.cheap_constraint(mass_at(rho * 1.001))(x)
 
 
+def test_optimizer_package_does_not_import_the_simulator():
+    code = ("import pkgutil, importlib, sys, optimizer\n"
+            "for m in pkgutil.iter_modules(optimizer.__path__):\n"
+            "    importlib.import_module('optimizer.' + m.name)\n"
+            "print(sorted(m for m in sys.modules if m.startswith('tethernet_ros')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "[]"
+
+
 def test_evaluator_observation_common_random_numbers():
     be = SyntheticBackend()
     cfg = SimConfig(**SHORT)

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pytest
 
+from golden import exact
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.design_problem import optimize_design
@@ -42,17 +43,6 @@ RUNS = {
                            validation_samples=10),
     "real-mass": dict(case="mass", iterations=1, seed_points=3, samples=2, validation_samples=2),
 }
-
-
-def exact(v):
-    """Floats as repr strings (bit for bit, NaN included), recursively."""
-    if isinstance(v, float):
-        return repr(v)
-    if isinstance(v, dict):
-        return {k: exact(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple)):
-        return [exact(x) for x in v]
-    return v
 
 
 def run_golden(name: str) -> dict:

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
+
+from optimizer.jsonio import json_clean
 
 from ..core.design import Design, load_design
 from ..core.noise import NOISE_SOURCES, NoiseModel
@@ -93,17 +94,6 @@ def noise_model_from_args(args) -> NoiseModel:
         except ValueError:
             raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in [0, 100]") from None
     return NoiseModel(orientation_axis=args.orientation_axis, scales=scales)
-
-
-def json_clean(obj):
-    """Replace non-finite floats by None so that the output is strict JSON."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: json_clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_clean(v) for v in obj]
-    return obj
 
 
 def print_json(obj) -> None:
