@@ -93,7 +93,7 @@ def results_markdown(summary: dict) -> str:
            f"{summary['problem']}.", "",
            f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
            f"{summary['evaluations'] - summary['seed_points'] if summary['evaluations'] > summary['seed_points'] else 0} "
-           f"iterations), {_samples_text(summary)} (base seed {summary['sample_seed']}), "
+           f"iterations), {_samples_text(summary)}, "
            f"{summary['feasible_evaluations']} observed feasible. Status: {summary['status']}.", ""]
     if not rows:
         out += ["No evaluated design met the constraints; nothing to validate.", ""]
@@ -137,11 +137,12 @@ def results_markdown(summary: dict) -> str:
 
 def _samples_text(summary: dict) -> str:
     """How many samples each design got: N each, or up to N with sequential sampling."""
-    n = summary["samples"]
+    n, seed = summary["samples"], summary["sample_seed"]
     if summary.get("sampling") != "sequential":
-        return f"{n} samples each"
-    return (f"up to {n} samples each (sequential sampling: {summary['episodes']} of "
-            f"{summary['episodes_full']} drawn, {summary['episodes_saved']} saved)")
+        return f"{n} samples each (base seed {seed})"
+    return (f"up to {n} samples each (base seed {seed}; sequential sampling: "
+            f"{summary['episodes']} of {summary['episodes_full']} drawn, "
+            f"{summary['episodes_saved']} saved)")
 
 
 def plot_convergence(path: str | Path, history, case: Case, best=None,

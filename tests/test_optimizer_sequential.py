@@ -84,8 +84,8 @@ def test_known_problem_same_best_design_as_full_sampling():
     C_P = 0.98), 8 seed points + 16 iterations: full and sequential sampling end at the
     same design (within 0.002) on the same branch of the feasible set, both truly
     feasible; sequential sampling rests on about half the samples.  (Measured with seeds
-    0/1/2: the two best designs within 0.0006 / 0.0006 / 0.010 of each other, 45-51 % of
-    the samples.)"""
+    0/1/2: the two best designs within 0.0006 / 0.0006 / 0.010 of each other, sequential
+    sampling drawing 49-55 % of the samples.)"""
     prob = BernoulliGramacy2016()
     best = {}
     sequential = functools.partial(prob.evaluate, rule=SequentialRule(100, 0.98))
