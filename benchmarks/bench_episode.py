@@ -1,10 +1,14 @@
-"""Episode benchmark: wall time per nominal episode of each reference design, simulated
-time, real-time factor and cost per step, with numba compilation timed apart.
+"""Episode benchmark: the implicit and the explicit method side by side on each reference
+design (nominal launch): wall time per episode, real-time factor, cost per step and the
+ratio of the two methods' wall times, in one run.
 
-    .venv/bin/python benchmarks/bench_episode.py [--repeats N] [--designs a,b] [--no-trace]
+    .venv/bin/python benchmarks/bench_episode.py [--repeats N] [--designs a,b]
+        [--config FILE.yaml] [--iterations K] [--no-trace] [--implicit-only]
 
-Runs on one core (the kernel is single-threaded).  The first call compiles the kernel or
-loads it from numba's on-disk cache (__pycache__); that time is reported separately.
+Runs on one core (the kernels are single-threaded).  The methods alternate episode by
+episode (implicit, explicit, implicit, ...) so that a drift of the machine's speed hits
+both alike; the median of the repeats is printed.  The first call of each method compiles
+its kernel or loads it from numba's on-disk cache; that time is reported apart.
 """
 from __future__ import annotations
 
@@ -23,7 +27,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--designs", default="baseline,suboptimal,mass-min,time-min")
+    ap.add_argument("--config", default=None, help="YAML of SimConfig fields (default model otherwise)")
+    ap.add_argument("--iterations", type=int, default=None, help="implicit sweeps per step")
     ap.add_argument("--no-trace", action="store_true", help="skip the CQI trace (kernel only)")
+    ap.add_argument("--implicit-only", action="store_true", help="skip the explicit method")
     args = ap.parse_args(argv)
 
     t0 = time.perf_counter()
@@ -33,28 +40,50 @@ def main(argv=None) -> int:
     from tethernet_ros.core.scenario import scenario_for
     t_import = time.perf_counter() - t0
 
-    t0 = time.perf_counter()
-    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"]))
-    sim.advance(1)
-    sim.cqi()
-    t_jit = time.perf_counter() - t0
-    print(f"import {t_import:.2f} s; kernel compile / cache load + first step {t_jit:.2f} s")
-    print(f"{'design':<11} {'dt (s)':>9} {'steps':>8} {'sim (s)':>8} {'wall (s)':>9} "
-          f"{'RTF':>6} {'us/step':>8} {'vs ref':>7}  outcome")
-    cfg = SimConfig()
+    data = {}
+    if args.config:
+        import yaml
+
+        with open(args.config) as f:
+            data = yaml.safe_load(f) or {}
+    base = SimConfig.from_dict(data)
+    implicit = base.replace(integrator="implicit")
+    if args.iterations:
+        implicit = implicit.replace(implicit_iterations=args.iterations)
+    methods = [("implicit", implicit)]
+    if not args.implicit_only:
+        methods.append(("explicit", base.replace(integrator="explicit")))
+
+    for label, cfg in methods:
+        t0 = time.perf_counter()
+        sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, cfg))
+        sim.advance(1)
+        sim.cqi()
+        print(f"{label}: kernel compile / cache load + first step {time.perf_counter() - t0:.2f} s")
+    print(f"import {t_import:.2f} s; implicit: {implicit.implicit_iterations} sweeps at "
+          f"{implicit.implicit_dt:g} s; median of {args.repeats} episode(s) per cell")
+    print(f"{'design':<11} {'method':<9} {'dt (s)':>9} {'steps':>8} {'sim (s)':>8} {'wall (s)':>9} "
+          f"{'RTF':>6} {'us/step':>8} {'vs ref':>7} {'expl/impl':>9}  outcome")
     for name in args.designs.split(","):
         d = REFERENCE_DESIGNS[name]
-        walls, res = [], None
+        walls = {label: [] for label, _ in methods}
+        res = {}
         for _ in range(args.repeats):
-            t0 = time.perf_counter()
-            res = run_episode(d, None, cfg, record_trace=not args.no_trace)
-            walls.append(time.perf_counter() - t0)
-        wall = statistics.median(walls)
-        dt = scenario_for(d, None, cfg).dt
-        outcome = "success" if res.success else res.failure_reason
-        print(f"{name:<11} {dt:9.3e} {res.steps:8d} {res.completion_time:8.2f} {wall:9.3f} "
-              f"{res.completion_time / wall:6.1f} {wall / res.steps * 1e6:8.2f} "
-              f"{REFERENCE_CPU_SECONDS / wall:6.0f}x  {outcome}")
+            for label, cfg in methods:
+                t0 = time.perf_counter()
+                res[label] = run_episode(d, None, cfg, record_trace=not args.no_trace)
+                walls[label].append(time.perf_counter() - t0)
+        med = {label: statistics.median(w) for label, w in walls.items()}
+        for label, cfg in methods:
+            r = res[label]
+            wall = med[label]
+            dt = scenario_for(d, None, cfg).dt
+            ratio = (f"{med['explicit'] / med['implicit']:9.1f}" if "explicit" in med and label == "implicit"
+                     else f"{'':9s}")
+            outcome = "success" if r.success else r.failure_reason
+            print(f"{name:<11} {label:<9} {dt:9.3e} {r.steps:8d} {r.completion_time:8.2f} {wall:9.3f} "
+                  f"{r.completion_time / wall:6.1f} {wall / r.steps * 1e6:8.2f} "
+                  f"{REFERENCE_CPU_SECONDS / wall:6.0f}x {ratio}  {outcome}", flush=True)
     return 0
 
 

@@ -14,7 +14,9 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
                     target_distance=1e6, config=None) -> Scenario:
     """Bodies at x (N, 3) with velocities v and masses (inf = fixed) joined by
     tension-only spring-dampers (stiffness N/m, damping N s/m), each link its own group.
-    The target sits ``target_distance`` m away on +z (out of reach unless moved)."""
+    The target sits ``target_distance`` m away on +z (out of reach unless moved).  The
+    configuration (default: the "spec-text" model on the explicit method) chooses the
+    integrator and the drawstring's lock model."""
     x = np.array(x, dtype=float)
     v = np.array(v, dtype=float)
     mass = np.array(mass, dtype=float)
@@ -23,7 +25,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
     if rest is None:
         rest = np.linalg.norm(x[links[:, 1]] - x[links[:, 0]], axis=1)
     w = np.where(np.isinf(mass), 0.0, 1.0 / mass)
-    cfg = config or SimConfig()
+    cfg = config or SimConfig.preset("spec-text")
     slots = np.full((nb, kn.N_SLOTS), -1, dtype=np.int64)
     signs = np.zeros((nb, kn.N_SLOTS))
     used = np.zeros(nb, dtype=int)
@@ -40,7 +42,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
                        zeta_contact=cfg.contact_damping_ratio, tgt_inv_mass=1.0 / cfg.target.mass,
                        tgt_bound=target.bounding_radius, tether_lin_density=0.0, tether_EA=0.0,
                        zeta_thread=0.0, thread_damping=0, omega_1=0.0,
-                       lock_model=kn.LOCK_MODELS.index(cfg.lock_model))
+                       lock_model=kn.LOCK_MODELS.index(cfg.lock_model), restitution=0.0)
     return Scenario(
         design=REFERENCE_DESIGNS["baseline"], config=cfg, target=target,
         bodies=kn.Bodies(x=x, v=v, w=w, mass=np.where(np.isinf(mass), 1e300, mass),

@@ -13,7 +13,7 @@ import sys
 from .errors import UserError
 
 #: command modules, in the order ``tethernet --help`` lists them
-COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize")
+COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize", "study")
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:

@@ -66,6 +66,7 @@ _CHOICES = {
     "lock_model": ("ratchet", "latch"),
     "drawstring_corners": ("net", "corner_mass"),
     "integrator": ("explicit", "implicit"),
+    "implicit_impacts": ("rebound", "inelastic"),
 }
 
 
@@ -112,7 +113,10 @@ class SimConfig:
     r_n as in the text; code 2 mm).
     integrator: "explicit" (symplectic Euler at a fraction of the stable step) or
     "implicit" (compliant constraints at implicit_dt (s) unless dt is set,
-    implicit_iterations solver sweeps per step).
+    implicit_iterations solver sweeps per step); implicit_impacts: "rebound" (a new impact
+    leaves with the restitution of the Kelvin-Voigt contact law, as the continuous model
+    and the explicit method have it) or "inelastic" (none: what a step longer than the
+    contact's period gives by itself).
     """
 
     dt: float = 0.0
@@ -124,14 +128,14 @@ class SimConfig:
     density: float = 1390.0
     grid_nodes: int = 17
     stowed_fraction: float = 0.05
-    corner_thread_meshes: float = 1.0
+    corner_thread_meshes: float = 2.0 ** 0.5
     tether_segments: int = 10
     closing_indices: tuple[int, ...] = (0, 5, 11, 16)
     lock_distance: float = 1.0
-    closing_force_factor: float = 2.0 / 25.0
-    friction: float = 0.3
+    closing_force_factor: float = 2.0
+    friction: float = 0.152
     contact_frequency: float = 1000.0
-    contact_damping_ratio: float = 0.3
+    contact_damping_ratio: float = 0.106
     node_contact_radius: float = 0.02
     corner_mass_radius: float = 0.05
     chaser_mass: float = 1000.0
@@ -141,22 +145,23 @@ class SimConfig:
     max_speed: float = 500.0
     success_cqi: float = 2.0
     success_locked_pairs: int = 10
-    thread_damping: str = "element"
-    static_friction_scale: float = 1.0
-    contact_model: str = "frequency"
+    thread_damping: str = "stiffness"
+    static_friction_scale: float = 1.25
+    contact_model: str = "hertz"
     poisson_ratio: float = 0.36
     target_young_modulus: float = 69e9
     target_poisson_ratio: float = 0.33
     hertz_penetration: float = 1e-4
     hertz_divisor: float = 10.0
-    contact_radius: str = "fixed"
+    contact_radius: str = "density"
     corner_mass_density: float = 2700.0
-    lock_model: str = "ratchet"
-    drawstring_corners: str = "net"
-    tether_radius: float = 0.0
-    integrator: str = "explicit"
-    implicit_iterations: int = 8
+    lock_model: str = "latch"
+    drawstring_corners: str = "corner_mass"
+    tether_radius: float = 0.002
+    integrator: str = "implicit"
+    implicit_iterations: int = 4
     implicit_dt: float = 1e-3
+    implicit_impacts: str = "rebound"
     target: TargetConfig = field(default_factory=TargetConfig)
 
     def __post_init__(self):
@@ -236,15 +241,16 @@ class SimConfig:
         return cls(**data)
 
 
-#: Named models: field values that differ from the defaults.  "spec-text": the model as
-#: SPEC sections 1-3 word it (the project's model up to the reference study; kept so that
-#: its results can be reproduced bit for bit).
+#: Named models: field values that differ from the defaults.  The defaults are the
+#: reference implementation's model (SPEC section 10) on the implicit method at its 1 ms
+#: step ("reference" changes nothing).  "spec-text": the model as SPEC sections 1-3 word it,
+#: on the explicit method: the project's model up to the reference study, kept so that its
+#: results are reproduced bit for bit (tests/test_kernel_golden.py).
 MODEL_PRESETS: dict[str, dict] = {
-    "spec-text": {},
-    # the reference implementation's choices (SPEC section 10)
-    "reference": dict(
-        thread_damping="stiffness", friction=0.152, static_friction_scale=1.25,
-        contact_model="hertz", contact_damping_ratio=0.106, contact_radius="density",
-        corner_thread_meshes=2.0 ** 0.5, closing_force_factor=2.0, lock_model="latch",
-        drawstring_corners="corner_mass", tether_radius=0.002),
+    "reference": {},
+    "spec-text": dict(
+        thread_damping="element", friction=0.3, static_friction_scale=1.0,
+        contact_model="frequency", contact_damping_ratio=0.3, contact_radius="fixed",
+        corner_thread_meshes=1.0, closing_force_factor=2.0 / 25.0, lock_model="ratchet",
+        drawstring_corners="net", tether_radius=0.0, integrator="explicit"),
 }

@@ -6,8 +6,10 @@ Units: SI (m, kg, N/m, N s/m, Pa, rad/s).
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
+from scipy.integrate import solve_ivp
 from scipy.linalg import eigh_tridiagonal
 
 
@@ -70,3 +72,27 @@ def hertz_linear_stiffness(radius, e_star: float, penetration: float, divisor: f
 def sphere_radius(mass, density: float):
     """Radius (m) of a solid sphere of ``mass`` (kg) at ``density`` (kg/m^3)."""
     return np.cbrt(3.0 * np.asarray(mass, dtype=float) / (4.0 * math.pi * density))
+
+
+@lru_cache(maxsize=64)
+def kelvin_voigt_restitution(zeta: float) -> float:
+    """Coefficient of restitution of a linear Kelvin-Voigt contact of damping ratio zeta
+    that never pulls: the body leaves when k delta + c d(delta)/dt falls to zero (or the
+    penetration ends), not when delta returns to 0.  In the time of the undamped contact
+    (omega t), delta'' + 2 zeta delta' + delta = 0 from delta = 0, delta' = 1; e = -delta'
+    at release.  0.732 at zeta = 0.106, 0.135 at zeta = 1; it depends on zeta only."""
+    if zeta < 0:
+        raise ValueError(f"zeta: got {zeta}; must be >= 0")
+
+    def rhs(_t, y):
+        return [y[1], -(y[0] + 2.0 * zeta * y[1])]
+
+    def released(_t, y):
+        return min(y[0] + 2.0 * zeta * y[1], y[0])
+
+    released.terminal = True
+    released.direction = -1
+    sol = solve_ivp(rhs, (1e-9, 100.0), [1e-9, 1.0], events=released, rtol=1e-10, atol=1e-13)
+    if not sol.t_events[0].size:
+        return 0.0
+    return float(max(-sol.y_events[0][0][1], 0.0))

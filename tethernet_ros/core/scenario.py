@@ -328,7 +328,9 @@ def build_scenario(design: Design, actions: Actions, world: World,
         tgt_bound=target.bounding_radius, tether_lin_density=tether_lin_density,
         tether_EA=tether_EA, zeta_thread=cfg.damping_ratio,
         thread_damping=kn.THREAD_DAMPING_MODELS.index(cfg.thread_damping), omega_1=omega_1,
-        lock_model=kn.LOCK_MODELS.index(cfg.lock_model))
+        lock_model=kn.LOCK_MODELS.index(cfg.lock_model),
+        restitution=(materials.kelvin_voigt_restitution(cfg.contact_damping_ratio)
+                     if cfg.implicit_impacts == "rebound" else 0.0))
     net_nodes = np.arange(n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,

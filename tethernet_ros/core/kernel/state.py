@@ -53,11 +53,12 @@ TargetBody = namedtuple("TargetBody", "pos quat vel omega inertia cyl verts offs
 #: ("frequency" model) and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
 #: sphere about the target's CoM enclosing it (m); tether_lin_density (kg/m), tether_EA (N),
 #: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
-#: tether segments made when the winch locks; lock_model: index into LOCK_MODELS.
+#: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
+#: restitution: the implicit method's coefficient of restitution of a new impact (0: none).
 Params = namedtuple("Params", "dt close_force close_threshold lock_dist mu mu_static "
                               "contact_model omega_contact zeta_contact tgt_inv_mass tgt_bound "
                               "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
-                              "lock_model")
+                              "lock_model restitution")
 
 #: Modelling choices held as small integers in Params (the index of the name).
 CONTACT_MODELS = ("frequency", "hertz")

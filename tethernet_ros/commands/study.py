@@ -1,0 +1,128 @@
+"""`tethernet study NAME`: a study of the model or of its numerical method over common
+random numbers, with its table and figure written under docs/studies/.
+
+  models       the default model, each modelling choice of SPEC section 10 switched alone
+               to the source's text, and all of the text together (issue 9)
+  convergence  the default against half its step (P*_s, flipped verdicts, mean T)
+  agreement    the default integrator against the other one on the same model
+
+Every cell of every design runs on the same samples (sample i of base seed B uses noise
+seed B*1000003+i).  Each finished sample is appended to the study's results file, so an
+interrupted study resumes where it stopped.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ..core.design import REFERENCE_DESIGNS
+from .common import (add_backend_arguments, add_config_argument, backend_from_args,
+                     check_backend_arguments, config_from_args, json_clean)
+
+NAME = "study"
+HELP = "model and method studies over common random numbers (tables and figures in docs/studies)"
+
+
+def add_arguments(p):
+    from ..studies.cells import STUDIES
+
+    p.add_argument("study", choices=sorted(STUDIES), help="which study")
+    p.add_argument("--designs", default=",".join(REFERENCE_DESIGNS), metavar="A,B",
+                   help="reference designs (default: all four)")
+    p.add_argument("--samples", type=int, default=200, metavar="N",
+                   help="samples per cell and design (default 200)")
+    p.add_argument("--seed", type=int, default=0, metavar="BASE", help="base seed (default 0)")
+    p.add_argument("--cells", default=None, metavar="A,B",
+                   help="only these cells (labels; the first cell is always kept as the base)")
+    add_backend_arguments(p)
+    add_config_argument(p)
+    p.add_argument("--results", default=None, metavar="FILE.jsonl",
+                   help="results file (default out/studies/<study>_seed<BASE>.jsonl)")
+    p.add_argument("--out", default="docs/studies", metavar="DIR",
+                   help="where the table (.md), summary (.json) and figure (.png) go")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run(args) -> int:
+    from ..errors import UserError
+    from ..montecarlo import RunSpec, evaluate_many
+    from ..studies.cells import STUDIES
+    from ..studies.paired import CellStats, PairedStats
+    from ..studies.report import comparison_table, plot_study, study_table
+
+    check_backend_arguments(args)
+    designs = [d.strip() for d in args.designs.split(",") if d.strip()]
+    for d in designs:
+        if d not in REFERENCE_DESIGNS:
+            raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)}")
+    if args.samples < 1:
+        raise UserError(f"--samples {args.samples}: must be an integer >= 1")
+    base = config_from_args(args)
+    cells = STUDIES[args.study](base)
+    if args.cells:
+        keep = {c.strip() for c in args.cells.split(",")}
+        unknown = keep - {c.label for c in cells}
+        if unknown:
+            raise UserError(f"--cells: unknown {sorted(unknown)}; allowed {[c.label for c in cells]}")
+        cells = [cells[0]] + [c for c in cells[1:] if c.label in keep]
+    specs = [RunSpec(REFERENCE_DESIGNS[d], config=c.config, label=f"{c.label}|{d}")
+             for c in cells for d in designs]
+    results = Path(args.results or f"out/studies/{args.study}_seed{args.seed}.jsonl")
+    results.parent.mkdir(parents=True, exist_ok=True)
+    progress = None
+    if not args.no_progress:
+        from tqdm import tqdm
+
+        bar = tqdm(desc=f"study {args.study}", unit="ep", file=sys.stderr)
+
+        def progress(done, total, _r):
+            bar.total = total
+            bar.n = done
+            bar.refresh()
+    backend = backend_from_args(args)
+    try:
+        out = evaluate_many(specs, args.samples, args.seed, backend, results_path=results,
+                            progress=progress)
+    finally:
+        backend.close()
+    by_label = {r.label: r for r in out}
+    stats, paired = {}, {}
+    for c in cells:
+        for d in designs:
+            stats[(c.label, d)] = CellStats.from_samples(c.label, d, by_label[f"{c.label}|{d}"].samples)
+    for c in cells[1:]:
+        for d in designs:
+            paired[(c.label, d)] = PairedStats.from_samples(
+                stats[(cells[0].label, d)], stats[(c.label, d)],
+                by_label[f"{cells[0].label}|{d}"].samples, by_label[f"{c.label}|{d}"].samples)
+
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    name = f"{args.study}"
+    title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
+    if len(cells) == 2:
+        table = comparison_table(designs, paired, cells[1].label)
+    else:
+        table = study_table(designs, cells, stats, paired)
+    legend = "\n".join(f"- **{c.label}**: {c.what}" for c in cells)
+    cmd = " ".join(["tethernet", "study"] + sys.argv[sys.argv.index("study") + 1:]) \
+        if "study" in sys.argv else f"tethernet study {args.study}"
+    md = (f"# {title}\n\nCommand: `{cmd}`\n\nBase configuration: integrator "
+          f"{base.integrator}" + (f", step {base.implicit_dt:g} s, {base.implicit_iterations} sweeps"
+                                  if base.integrator == "implicit" else "")
+          + f".\n\nCells (a: {cells[0].label}" + (f", b: {cells[1].label}" if len(cells) == 2 else "")
+          + "):\n" + legend + "\n\n" + table + "\n")
+    (outdir / f"{name}.md").write_text(md)
+    summary = {"study": args.study, "samples": args.samples, "seed": args.seed,
+               "designs": designs, "cells": [{"label": c.label, "what": c.what,
+                                               "config": c.config.to_dict()} for c in cells],
+               "stats": [vars(s) for s in stats.values()],
+               "paired": [{"a": p.a.label, "b": p.b.label, "design": p.a.design, "flips": p.flips,
+                           "a_only": p.a_only, "b_only": p.b_only, "mcnemar_p": p.mcnemar_p,
+                           "p_diff": p.p_diff, "t_rel_diff": p.t_rel_diff,
+                           "within_half_width": p.within_half_width} for p in paired.values()]}
+    (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
+    plot_study(designs, cells, stats, outdir / f"{name}.png", title)
+    print(md)
+    return 0

@@ -1,0 +1,11 @@
+"""Studies of the model and of its numerical method over common random numbers:
+
+=============  ==========================================================================
+cells.py       what a study compares: its cells (a label and a configuration) per study
+paired.py      statistics of two cells on the same samples: P*_s, Wilson intervals,
+               flipped verdicts, mean T
+report.py      the study's Markdown table and figure
+=============  ==========================================================================
+
+``tethernet study NAME`` (commands/study.py) runs one.
+"""

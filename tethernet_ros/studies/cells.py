@@ -1,0 +1,88 @@
+"""The cells of each study: a label and a full simulation configuration.
+
+``models``: the default model, then each modelling choice of SPEC section 10 switched
+alone to what the source's text says (SPEC sections 1-3), then all of them together.
+``convergence``: the default and the same with half the step.  ``agreement``: the
+default integrator against the other one, same model.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..core.config import SimConfig
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One column of a study: ``label`` (short), ``what`` (its source or meaning) and the
+    configuration its episodes run with."""
+
+    label: str
+    what: str
+    config: SimConfig
+
+
+#: Each choice of the default model with the value the source's text gives it instead:
+#: (label, overrides, what the text says).  One home for the model study's choices.
+TEXT_CHOICES: tuple[tuple[str, dict, str], ...] = (
+    ("closing force text", {"closing_force_factor": 2.0 / 25.0},
+     "F_c = 2 m_c L_n / 25 (text) instead of 2 m_c L_n / 1^2 (code)"),
+    ("ratchet lock", {"lock_model": "ratchet"},
+     "force on every pair, a locked pair held by a shortening joint (text as implemented) "
+     "instead of a latch (code)"),
+    ("ring at net corners", {"drawstring_corners": "net"},
+     "drawstring through the net's corner nodes (text) instead of the corner masses (code)"),
+    ("element damping", {"thread_damping": "element"},
+     "c = 2 zeta sqrt(k m_eff) per thread (text) instead of 2 zeta k / omega_1 (code)"),
+    ("friction 0.3", {"friction": 0.3, "static_friction_scale": 1.0},
+     "Coulomb mu = 0.3 (text) instead of kinetic 0.152, static 0.19 (code)"),
+    ("contact 1000 rad/s", {"contact_model": "frequency", "contact_damping_ratio": 0.3},
+     "per-body contact frequency 1000 rad/s, damping 0.3 (text as implemented) instead of "
+     "linearised Hertz / 10, damping 0.106 (code)"),
+    ("spheres 2 / 5 cm", {"contact_radius": "fixed"},
+     "contact spheres 2 cm (nodes) and 5 cm (corner masses) instead of density-sized (code)"),
+    ("corner thread 1 mesh", {"corner_thread_meshes": 1.0},
+     "corner thread one mesh side (text) instead of sqrt 2 (code)"),
+    ("tether r_n", {"tether_radius": 0.0},
+     "main tether of the net's thread radius (text) instead of 2 mm (code)"),
+)
+
+
+def _spec_text(base: SimConfig) -> SimConfig:
+    """All of the text's choices, on the base configuration's numerical method."""
+    keep = {f: getattr(base, f) for f in ("integrator", "implicit_dt", "implicit_iterations",
+                                          "dt", "dt_safety", "horizon", "settle_time")}
+    return SimConfig.preset("spec-text", **keep)
+
+
+def model_cells(base: SimConfig) -> list[Cell]:
+    """The model study: the base, each text choice alone, all of them ("spec-text")."""
+    cells = [Cell("default", "the default model (docs/model.md)", base)]
+    for label, overrides, what in TEXT_CHOICES:
+        cells.append(Cell(label, what, base.replace(**overrides)))
+    cells.append(Cell("all text", "every choice as the text gives it (preset spec-text)",
+                      _spec_text(base)))
+    return cells
+
+
+def convergence_cells(base: SimConfig) -> list[Cell]:
+    """The default and the same with half the step (implicit: implicit_dt / 2; explicit:
+    dt_safety / 2)."""
+    if base.integrator == "implicit":
+        half = base.replace(implicit_dt=base.implicit_dt / 2)
+        what = f"implicit step {base.implicit_dt / 2:g} s"
+    else:
+        half = base.replace(dt_safety=base.dt_safety / 2)
+        what = f"explicit step fraction {base.dt_safety / 2:g}"
+    return [Cell("default", f"the default ({base.integrator})", base), Cell("half step", what, half)]
+
+
+def agreement_cells(base: SimConfig) -> list[Cell]:
+    """The default integrator and the other one on the same model."""
+    other = "explicit" if base.integrator == "implicit" else "implicit"
+    return [Cell(base.integrator, f"the default model, {base.integrator} method", base),
+            Cell(other, f"the same model, {other} method", base.replace(integrator=other))]
+
+
+STUDIES = {"models": model_cells, "convergence": convergence_cells, "agreement": agreement_cells}
+
