@@ -1,5 +1,5 @@
 """Reliability-constrained Bayesian optimisation over a box (SPEC section 7): the ask/tell
-optimiser :class:`ConstrainedBayesOpt` and the loop :func:`minimize` that drives it.
+optimiser :class:`ConstrainedBayesOpt` (:func:`optimizer.loop.minimize` drives it).
 
 Simulator-independent: the expensive function is any callable. The optimiser minimises an
 objective ``f(x)`` over a box subject to
