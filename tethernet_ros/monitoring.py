@@ -4,7 +4,7 @@ The monitor node and ``tethernet replay`` both see the episode only as a sequenc
 states (NetState messages).  :class:`StateMirror` is a :class:`CaptureSimulation` built
 from the same design, commands and configuration as the simulation's, but never advanced:
 each received state is loaded into its arrays, and then the core's own ``cqi()``,
-``locked_pairs``, ``divergence()``, ``end_step()`` and ``run_simulation`` result rules
+``locked_pairs``, ``divergence()``, ``end_step()`` and ``episode_result`` result rules
 apply to it unchanged.
 """
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from .core import kernel as kn
 from .core.config import SimConfig
 from .core.design import Design
-from .core.episode import CaptureSimulation, EpisodeResult, run_simulation
+from .core.episode import CaptureSimulation, EpisodeResult, episode_result
 from .core.metrics import CQITerms
 from .core.scenario import Actions, World, build_scenario
 
@@ -90,17 +90,13 @@ class StateMirror:
         if at_end or (sim.step > 0 and sim.step % self.check_every == 0):
             reason = sim.divergence()
             if reason:
-                return EpisodeResult(
-                    success=False, settled_cqi=math.nan, locked_pairs=sim.locked_pairs,
-                    closing_time=sim.closing_time if sim.closing_active else math.nan,
-                    completion_time=sim.time, mass=self.design.mass(self.config.density),
-                    failure_reason=reason, wall_time=0.0, seed=None, steps=sim.step,
-                    max_penetration=math.nan)
+                res = episode_result(sim, reason)
+                res.max_penetration = math.nan
+                return res
         if not at_end:
             return None
-        # the state is at its end step: run_simulation does no stepping and applies the
-        # core's result rules (closing never triggered / capture_verdict) to it
-        res = run_simulation(sim, record_trace=False)
-        res.wall_time = 0.0
+        # the state is at its end step: the core's result rules (closing never triggered /
+        # capture_verdict) apply to it
+        res = episode_result(sim)
         res.max_penetration = math.nan
         return res

@@ -198,7 +198,7 @@ def run(args) -> int:
         options["n_candidates"] = args.candidates
 
     if args.via == "ros":
-        from ..ros_backend import RosBackend
+        from ..ros.backend import RosBackend
 
         backend = RosBackend(bag_dir=run_dir / "bags" if args.keep_bags else None,
                              keep_bags=args.keep_bags)

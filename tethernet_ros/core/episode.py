@@ -234,6 +234,15 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
             break
         sample(sim.step)
 
+    return episode_result(sim, reason, time.perf_counter() - t0, trace)
+
+
+def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 0.0,
+                   trace: EpisodeTrace | None = None) -> EpisodeResult:
+    """The result rules applied to the simulation's current state: diverged (``reason``
+    given), closing never triggered (T is the horizon), or the capture verdict of the
+    settled state.  The one home of these rules (library, workers, monitor node)."""
+    cfg = sim.cfg
     mass = sim.s.design.mass(cfg.density)
     settled = None
     if reason:
@@ -253,7 +262,7 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
         success=success, settled_cqi=cqi_val, locked_pairs=n_l,
         closing_time=sim.closing_time if sim.closing_active else math.nan,
         completion_time=completion, mass=mass, failure_reason=reason,
-        wall_time=time.perf_counter() - t0, seed=None, steps=sim.step,
+        wall_time=wall_time, seed=None, steps=sim.step,
         max_penetration=sim.max_penetration, settled_terms=settled, trace=trace)
 
 

@@ -38,8 +38,6 @@ from .seeds import SEED_STRIDE, sample_seed
 from .summary import MonteCarloResult
 from .worker import FAULT_ENV, run_task, warm_worker
 
-#: the former private name of error_text (tethernet_ros/ros/backend.py imports it)
-_error_text = error_text
 
 __all__ = [
     "DaskBackend", "EpisodeBackend", "EpisodeTask", "FAULT_ENV", "InProcessBackend",

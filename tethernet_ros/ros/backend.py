@@ -30,7 +30,7 @@ from pathlib import Path
 
 from ..bags.naming import sample_name
 from ..montecarlo import (EpisodeBackend, EpisodeTask, Outcome, SampleResult, error_text,
-                          failure_category)
+                          sample_result)
 from .conversions import episode_result_from_msg
 from .results import BagResultError, compare_results, result_from_bag
 
@@ -154,13 +154,6 @@ class RosBackend(EpisodeBackend):
             trace = {"time": [float(m.sim_time) for m in metrics],
                      "cqi": [float(m.cqi) for m in metrics],
                      "locked_pairs": [int(m.locked_pairs) for m in metrics]}
-        closing = float(r.closing_time) if r.closing_time is not None else math.nan
-        return SampleResult(
-            key=task.key, index=task.index, seed=task.seed, success=bool(r.success),
-            settled_cqi=float(r.settled_cqi), locked_pairs=int(r.locked_pairs),
-            closing_time=closing, completion_time=float(r.completion_time),
-            mass=float(r.mass), failure_reason=r.failure_reason,
-            category=failure_category(r.failure_reason, task.config, float(r.settled_cqi),
-                                      int(r.locked_pairs), closing),
-            steps=-1, max_penetration=math.nan, wall_time=wall, attempts=task.attempt + 1,
-            trace=trace)
+        # steps and penetration are not carried by the messages
+        return sample_result(task, r, trace=trace, wall_time=wall, steps=-1,
+                             max_penetration=math.nan)
