@@ -33,8 +33,9 @@ def study_table(designs: list[str], cells: list, stats: dict, paired: dict) -> s
             txt = cell_text(c)
             if k > 0:
                 ps: PairedStats = paired[(cell.label, d)]
-                txt += (f"<br>{100 * ps.p_diff:+.1f} pts, {ps.flips} flips "
-                        f"({100 * ps.flip_share:.0f} %), T {100 * ps.t_rel_diff:+.1f} %")
+                mark = "within" if ps.within_half_width else "outside"
+                txt += (f"<br>{100 * ps.p_diff:+.1f} pts ({mark} ±{100 * min(ps.a.half_width, ps.b.half_width):.1f}), "
+                        f"{ps.flips} flips ({100 * ps.flip_share:.1f} %), T {100 * ps.t_rel_diff:+.1f} %")
             row.append(txt)
         lines.append(f"| {cell.label} | " + " | ".join(row) + " |")
     return "\n".join(lines)
@@ -91,7 +92,7 @@ def plot_study(designs: list[str], cells: list, stats: dict, path: str | Path, t
     axes[0].set_ylim(0, 105)
     axes[1].set_ylabel("mean T (s)")
     axes[1].set_xticks(x, designs)
-    axes[0].legend(fontsize=7, ncol=4, loc="lower left")
+    axes[0].legend(fontsize=7, ncol=1, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     axes[0].set_title(title + "  (dashed: the source's published values)")
     fig.tight_layout()
     path = Path(path)
