@@ -5,7 +5,7 @@ PY    := $(VENV)/bin/python
 # keep DDS discovery on this host (Jazzy's default SUBNET multicasts on the LAN)
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 
-.PHONY: setup demo test test-fast bench clean
+.PHONY: setup demo lint test test-fast bench clean
 
 setup:
 	bash scripts/setup.sh
@@ -13,7 +13,10 @@ setup:
 demo: setup
 	$(VENV)/bin/tethernet capture --design mass-min --via ros
 
-test: setup
+lint: setup
+	$(VENV)/bin/ruff check .
+
+test: lint
 	$(PY) -m pytest -q tests
 
 test-fast: setup

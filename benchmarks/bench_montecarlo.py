@@ -8,7 +8,8 @@ against the pool).
 Every backend runs the same samples (same seeds, so the same work).  Worker start-up
 (spawn, imports, numba cache load) is timed apart and excluded from the throughput: the
 workers are started and warmed first.  Efficiency = eps(K) / (K * eps(1)); Dask overhead =
-t(dask, K) / t(pool, K) - 1, from --rounds interleaved pool/Dask pairs (median and range).  "workers busy" = sum of episode wall times / (K * run wall):
+t(dask, K) / t(pool, K) - 1, from --rounds interleaved pool/Dask pairs (median and range).
+"workers busy" = sum of episode wall times / (K * run wall):
 the share of the run the workers spent simulating (100 % = no scheduling loss), which
 other load on the machine does not change; episode CPU < episode wall shows that load.
 Numbers only, no asserts.

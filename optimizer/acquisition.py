@@ -22,7 +22,7 @@ bounds = the unit cube; a polished point outside the allowed set is discarded).
 from __future__ import annotations
 
 import math
-from typing import Callable, Mapping
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from scipy.optimize import minimize as scipy_minimize

@@ -38,7 +38,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 from skopt.sampler import Sobol
@@ -382,7 +382,7 @@ class ConstrainedBayesOpt:
         }
 
     @classmethod
-    def from_state_dict(cls, state: Mapping, cheap_constraint=None, **overrides) -> "ConstrainedBayesOpt":
+    def from_state_dict(cls, state: Mapping, cheap_constraint=None, **overrides) -> ConstrainedBayesOpt:
         """Rebuild an optimiser from :meth:`state_dict`. ``overrides`` may change
         ``n_iterations`` (e.g. to extend the budget); other settings come from the state."""
         if state.get("kind") != _STATE_KIND:

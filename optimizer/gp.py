@@ -113,7 +113,7 @@ class GPModel:
             dsd = np.where(sd[:, None] > 1e-12, dvar / (2.0 * sd[:, None]), 0.0)
         return mu, sd, dmu, dsd
 
-    def with_signal_variance_scaled(self, factor: float) -> "GPModel":
+    def with_signal_variance_scaled(self, factor: float) -> GPModel:
         """Copy with the signal (constant-kernel) variance multiplied by ``factor``;
         length scales and noise are kept fixed, data and standardisation unchanged."""
         k = self.gp.kernel_  # Sum(Product(Constant, Matern), White(0))

@@ -18,7 +18,8 @@ import math
 import os
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
+from collections.abc import Mapping
 
 __all__ = ["json_clean", "atomic_write_text", "atomic_write_json"]
 

@@ -7,7 +7,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
+from collections.abc import Callable, Mapping
 
 from .bayesopt import ConstrainedBayesOpt
 from .checkpoint import CheckpointError, load_checkpoint, save_checkpoint

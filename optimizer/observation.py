@@ -3,7 +3,7 @@ success probability estimated from Monte Carlo samples (:func:`binomial_observat
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -67,7 +67,7 @@ class Observation:
         }
 
     @classmethod
-    def from_dict(cls, d: Mapping) -> "Observation":
+    def from_dict(cls, d: Mapping) -> Observation:
         return cls(
             x=np.asarray(d["x"], dtype=float),
             objective=float(d["objective"]),

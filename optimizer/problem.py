@@ -8,7 +8,8 @@ samples (:class:`ReliabilityEstimate`).
 """
 from __future__ import annotations
 
-from typing import Callable, Protocol, Sequence
+from typing import Protocol
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import csv
 import math
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -92,7 +92,7 @@ def results_markdown(summary: dict) -> str:
     out = [f"# Case {summary['case_number']} results", "",
            f"{summary['problem']}.", "",
            f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
-           f"{summary['evaluations'] - summary['seed_points'] if summary['evaluations'] > summary['seed_points'] else 0} "
+           f"{max(summary['evaluations'] - summary['seed_points'], 0)} "
            f"iterations), {_samples_text(summary)}, "
            f"{summary['feasible_evaluations']} observed feasible. Status: {summary['status']}.", ""]
     if not rows:

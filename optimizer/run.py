@@ -41,7 +41,8 @@ import os
 import time
 import warnings
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
+from collections.abc import Callable, Mapping
 
 from .bayesopt import ConstrainedBayesOpt
 from .cases import P_SUCCESS, Case, get_case

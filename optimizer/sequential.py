@@ -25,7 +25,7 @@ so the result never depends on how many samples were drawn at once or how fast t
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from collections.abc import Sequence
 
 __all__ = ["SequentialRule", "allowed_failures"]
 

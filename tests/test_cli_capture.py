@@ -1,6 +1,5 @@
 """`tethernet capture`: JSON output, figure, and one-line errors for bad input."""
 import json
-import math
 import os
 import subprocess
 import sys

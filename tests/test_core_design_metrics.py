@@ -4,8 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from tethernet_ros.core.design import (REFERENCE_DESIGNS, Design, DesignError, load_design,
-                                       system_mass)
+from tethernet_ros.core.design import (REFERENCE_DESIGNS, Design, DesignError, load_design)
 from tethernet_ros.core.metrics import (capture_quality_index, capture_verdict,
                                         hull_volume_area, wilson_interval)
 from tethernet_ros.core.target import Target, TargetConfig

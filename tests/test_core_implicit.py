@@ -1,7 +1,6 @@
 """The implicit (compliant-constraint) method against invariants and the explicit method:
 momentum to round-off, no energy gained, threads that never push, contact without sinking,
 and the same deployment as the explicit method."""
-import math
 
 import numpy as np
 import pytest

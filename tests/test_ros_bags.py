@@ -80,7 +80,8 @@ def test_complete_bag_round_trip(tmp_path):
         got = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()
                if c.topic == "/s"]
     assert [m.step for m in got] == list(range(40))
-    assert np.array_equal(got[3].positions, np.frombuffer(deserialize_message(expected[3], NetState).positions, dtype=float))
+    want = np.frombuffer(deserialize_message(expected[3], NetState).positions, dtype=float)
+    assert np.array_equal(got[3].positions, want)
 
 
 def test_aborted_bag_is_marked_and_readable(tmp_path):
@@ -294,7 +295,7 @@ def test_cdr_stamp_reads_the_header_stamp_of_every_stamped_topic():
         elif key == "markers":
             from visualization_msgs.msg import Marker
 
-            for i in range(2):
+            for _ in range(2):
                 mk = Marker()
                 conv.set_time(mk.header.stamp, sim_time)
                 mk.header.frame_id = "chaser"

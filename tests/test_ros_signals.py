@@ -94,7 +94,7 @@ def test_nodes_stop_on_sigterm_mid_capture(tmp_path):
         for name in ("capture_node", "sim_node", "monitor_node", "actuator_node"):
             if name == "sim_node":
                 n = len(suite.metrics)
-                assert suite.spin_until(lambda: len(suite.metrics) > n, timeout=30), \
+                assert suite.spin_until(lambda n=n: len(suite.metrics) > n, timeout=30), \
                     "the simulation is not running any more"
             code, took = stop_with(suite.procs[name], signal.SIGTERM)
             print(f"{name}: SIGTERM mid-capture -> exit {code} after {took:.2f} s")

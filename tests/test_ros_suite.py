@@ -206,7 +206,7 @@ def test_bag_with_mcap_ros2_and_metadata(captured):
     with open(bag / meta["relative_file_paths"][0], "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         assert reader.get_header().profile == "ros2"
-        for schema, channel, message, decoded in reader.iter_decoded_messages():
+        for schema, channel, _message, decoded in reader.iter_decoded_messages():
             assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
             assert decoded is not None
             counts[channel.topic] = counts.get(channel.topic, 0) + 1

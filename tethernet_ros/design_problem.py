@@ -10,7 +10,7 @@ it (``tethernet optimize`` calls it).
 from __future__ import annotations
 
 from dataclasses import asdict
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 

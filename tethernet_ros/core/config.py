@@ -74,8 +74,9 @@ _CHOICES = {
 class SimConfig:
     """Model and integration settings.
 
-    dt: integration step (s); 0 picks dt_safety times the stable step of the design's
-    threads (kernel.stable_step), rounded down to divide the metric interval; horizon: simulated time by which closing must trigger (s);
+    dt: integration step (s); 0 picks dt_safety times the explicit method's stable step
+    (kernel.stable_step), rounded down to divide the metric interval, or implicit_dt for the
+    implicit method; horizon: simulated time by which closing must trigger (s);
     settle_time: delay after closing activation at which settled CQI and n_L are read (s).
     Threads: young_modulus E (Pa), damping_ratio zeta, density rho (kg/m^3).
     Net: grid of 17 x 17 nodes, stowed square of side stowed_fraction * L_n; corner threads
@@ -206,14 +207,14 @@ class SimConfig:
         return interval / math.ceil(interval / (self.dt_safety * stable_step))
 
     @classmethod
-    def preset(cls, name: str, **overrides) -> "SimConfig":
+    def preset(cls, name: str, **overrides) -> SimConfig:
         """A named model (``MODEL_PRESETS``) with optional field overrides."""
         if name not in MODEL_PRESETS:
             raise ConfigError(f"config field 'preset': got {name!r}; must be one of "
                               f"{sorted(MODEL_PRESETS)}")
         return cls(**{**MODEL_PRESETS[name], **overrides})
 
-    def replace(self, **changes) -> "SimConfig":
+    def replace(self, **changes) -> SimConfig:
         return replace(self, **changes)
 
     def to_dict(self) -> dict:
@@ -222,7 +223,7 @@ class SimConfig:
         return d
 
     @classmethod
-    def from_dict(cls, data: dict) -> "SimConfig":
+    def from_dict(cls, data: dict) -> SimConfig:
         """From a mapping of field values; a ``preset`` key names the model the other
         fields override (default: the project's default model)."""
         data = dict(data)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, asdict
 from pathlib import Path
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -82,7 +82,7 @@ class Design:
         return np.array([self.m_c, self.L_n, self.r_n, self.d_L, *self.V_e, self.d_c], dtype=float)
 
     @classmethod
-    def from_vector(cls, x: Sequence[float]) -> "Design":
+    def from_vector(cls, x: Sequence[float]) -> Design:
         x = [float(v) for v in x]
         if len(x) != 8:
             raise DesignError("X", f"expected 8 values {list(VARIABLE_NAMES)}, got {len(x)}")
@@ -94,7 +94,7 @@ class Design:
         return d
 
     @classmethod
-    def from_dict(cls, data: Mapping) -> "Design":
+    def from_dict(cls, data: Mapping) -> Design:
         if not isinstance(data, Mapping):
             raise DesignError("design", "expected a mapping with keys m_c, L_n, r_n, d_L, V_e, d_c")
         allowed = {"m_c", "L_n", "r_n", "d_L", "V_e", "d_c"}
@@ -201,7 +201,7 @@ def load_design(name_or_path: str) -> Design:
     if name_or_path in REFERENCE_DESIGNS:
         return REFERENCE_DESIGNS[name_or_path]
     path = Path(name_or_path)
-    if not path.suffix.lower() in (".yaml", ".yml", ".json") and not path.exists():
+    if path.suffix.lower() not in (".yaml", ".yml", ".json") and not path.exists():
         raise DesignError("design", f"unknown design {name_or_path!r}; allowed names are "
                           f"{sorted(REFERENCE_DESIGNS)} or a path to a .yaml file")
     if not path.is_file():

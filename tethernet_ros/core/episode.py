@@ -30,7 +30,6 @@ class CaptureSimulation:
         self.s = scenario
         self.cfg = scenario.config
         self.dt = scenario.dt
-        nb = scenario.n_bodies
         self.diag = kn.new_diagnostics()
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))

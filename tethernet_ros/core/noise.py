@@ -44,7 +44,7 @@ class NoiseSample:
     orientation_axis: str = "z"
 
     @classmethod
-    def nominal(cls, orientation_axis: str = "z") -> "NoiseSample":
+    def nominal(cls, orientation_axis: str = "z") -> NoiseSample:
         """No noise at all (the nominal, symmetric episode)."""
         return cls(seed=None, orientation_axis=orientation_axis)
 
@@ -99,7 +99,7 @@ class NoiseModel:
         """The spreads by field name (:data:`SPREAD_FIELDS`), unscaled."""
         return {k: getattr(self, k) for k in SPREAD_FIELDS}
 
-    def with_scales(self, **scales: float) -> "NoiseModel":
+    def with_scales(self, **scales: float) -> NoiseModel:
         merged = dict(self.scales)
         merged.update(scales)
         return replace(self, scales=merged)

@@ -47,7 +47,7 @@ def plot_sensitivity(rows: list[dict], path: str | Path, title: str = "") -> Pat
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="lower left")
     n = rows[0].get("samples") if rows else None
-    sub = f"one source scaled at a time; bands: Wilson 95 %" + (f"; N = {n} per point" if n else "")
+    sub = "one source scaled at a time; bands: Wilson 95 %" + (f"; N = {n} per point" if n else "")
     ax.set_title(f"{title}\n{sub}" if title else sub, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

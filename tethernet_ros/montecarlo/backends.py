@@ -11,7 +11,7 @@ from __future__ import annotations
 import abc
 import os
 from dataclasses import dataclass
-from typing import Iterable, Iterator
+from collections.abc import Iterable, Iterator
 
 from .records import EpisodeTask, SampleResult
 from .worker import run_task
@@ -60,7 +60,7 @@ class EpisodeBackend(abc.ABC):
             max_in_flight: int | None = None) -> Iterator[Outcome]:
         ...
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 - an optional hook: most backends hold nothing
         pass
 
     def describe(self) -> str:

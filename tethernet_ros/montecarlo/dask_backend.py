@@ -32,7 +32,7 @@ class DaskBackend(EpisodeBackend):
         where = self.scheduler or "local cluster"
         return f"dask ({where}, {self.workers} worker thread{'s' if self.workers != 1 else ''})"
 
-    def start(self) -> "DaskBackend":
+    def start(self) -> DaskBackend:
         if self._client is not None:
             return self
         import logging

@@ -22,7 +22,7 @@ class ProcessPoolBackend(EpisodeBackend):
         self.warm = warm
         self._pool = None
 
-    def start(self) -> "ProcessPoolBackend":
+    def start(self) -> ProcessPoolBackend:
         """Start the workers now and wait until all are warm (else they start lazily)."""
         pool = self._get_pool()
         if self.warm:

@@ -93,7 +93,7 @@ class SampleResult:
         return json_clean(d)
 
     @classmethod
-    def from_record(cls, rec: dict) -> "SampleResult":
+    def from_record(cls, rec: dict) -> SampleResult:
         names = {f for f in cls.__dataclass_fields__}
         d = {k: v for k, v in rec.items() if k in names}
         for k in ("settled_cqi", "closing_time", "completion_time", "mass", "max_penetration",

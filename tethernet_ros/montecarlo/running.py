@@ -9,7 +9,7 @@ Nothing is dropped: P*_s always divides by N.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 from .backends import EpisodeBackend, InProcessBackend
 from .dask_backend import DaskBackend

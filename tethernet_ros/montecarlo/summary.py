@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Sequence
+from collections.abc import Sequence
 
 from ..core.config import SimConfig
 from ..core.design import Design
@@ -53,7 +53,7 @@ class MonteCarloResult:
     def from_samples(cls, design: Design, samples: Sequence[SampleResult], base_seed: int,
                      key: str, config: SimConfig, label: str = "", reused: int = 0,
                      wall_time: float = 0.0, backend: str = "",
-                     noise_scales: dict | None = None) -> "MonteCarloResult":
+                     noise_scales: dict | None = None) -> MonteCarloResult:
         samples = sorted(samples, key=lambda r: r.index)
         n = len(samples)
         k = sum(1 for r in samples if r.success)

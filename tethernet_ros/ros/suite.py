@@ -128,7 +128,7 @@ class RosSuite:
         path.write_text(yaml.safe_dump(doc, sort_keys=True))
         return path
 
-    def start(self, timeout: float = 300.0) -> "RosSuite":
+    def start(self, timeout: float = 300.0) -> RosSuite:
         """Start the nodes and wait until the service is up and every node has joined
         the graph (the simulation node joins after loading its numba kernels, which can
         take minutes when they must be compiled)."""
@@ -263,7 +263,7 @@ class RosSuite:
         self.procs = {}
         return codes
 
-    def __enter__(self) -> "RosSuite":
+    def __enter__(self) -> RosSuite:
         return self.start() if not self.procs else self
 
     def __exit__(self, *exc) -> None:

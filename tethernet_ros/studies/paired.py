@@ -36,7 +36,7 @@ class CellStats:
         return (self.hi - self.lo) / 2
 
     @classmethod
-    def from_samples(cls, label: str, design: str, samples) -> "CellStats":
+    def from_samples(cls, label: str, design: str, samples) -> CellStats:
         n = len(samples)
         k = sum(1 for s in samples if s.success)
         lo, hi = wilson_interval(k, n)
@@ -75,7 +75,7 @@ class PairedStats:
         return abs(self.p_diff) < min(self.a.half_width, self.b.half_width)
 
     @classmethod
-    def from_samples(cls, a: CellStats, b: CellStats, samples_a, samples_b) -> "PairedStats":
+    def from_samples(cls, a: CellStats, b: CellStats, samples_a, samples_b) -> PairedStats:
         by_seed = {s.seed: s.success for s in samples_b}
         a_only = b_only = 0
         for s in samples_a:
