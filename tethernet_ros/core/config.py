@@ -160,7 +160,7 @@ class SimConfig:
     drawstring_corners: str = "corner_mass"
     tether_radius: float = 0.002
     integrator: str = "implicit"
-    implicit_iterations: int = 2
+    implicit_iterations: int = 4
     implicit_dt: float = 1e-3
     implicit_impacts: str = "rebound"
     target: TargetConfig = field(default_factory=TargetConfig)

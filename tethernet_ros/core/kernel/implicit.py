@@ -45,6 +45,11 @@ from .tether import pay_out_tether
 from .threads import gather_thread_forces
 from .work import make_work, store_work
 
+#: Contact rows are made for bodies within h |v_rel| + SPECULATIVE_MARGIN (m) of the target:
+#: the threads and the drawstring can whip a light node to more than 20 m/s within a step,
+#: faster than its velocity at the step's start announces.
+SPECULATIVE_MARGIN = 0.05
+
 #: Per-step rows.  Grid x-threads (n, n - 1) and y-threads (n - 1, n): unit direction
 #: (hnx, hny, hnz / vnx..), bias b (m/s), compliance gamma (1/kg) and 1 / (w_a + w_b +
 #: gamma) (kg).  Links (M,): the same plus their ends' rows.  Contacts, one per body at
@@ -366,7 +371,7 @@ def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
         cvy = tv[1] + oz * rx - ox * rz
         cvz = tv[2] + ox * ry - oy * rx
         vrel = np.sqrt((VX[i] - cvx) ** 2 + (VY[i] - cvy) ** 2 + (VZ[i] - cvz) ** 2)
-        reach = bodies.radius[i] + h * vrel
+        reach = bodies.radius[i] + h * vrel + SPECULATIVE_MARGIN
         rb = prm.tgt_bound + reach
         if rx * rx + ry * ry + rz * rz > rb * rb:
             sol.contact_pn[i] = 0.0
@@ -376,7 +381,7 @@ def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
         bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
         sd, nbx, nby, nbz = local_sdf(bx, by, bz, target.cyl, target.verts, target.offsets)
         C = sd - bodies.radius[i]                  # gap (m), negative: penetration
-        if C > h * vrel:
+        if C > h * vrel + SPECULATIVE_MARGIN:
             sol.contact_pn[i] = 0.0
             continue
         if -C > diag.max_penetration[0]:
