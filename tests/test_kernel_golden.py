@@ -1,8 +1,10 @@
-"""The kernel's results for a fixed set of episodes, recorded before a refactoring and
-compared bit for bit after it (final state digest, settled CQI, locks, closing time, steps).
+"""The kernels' results for a fixed set of episodes, recorded before a refactoring and
+compared bit for bit after it (final state digest, settled CQI, locks, closing time, steps):
+the "spec-text" model on the explicit method (recorded before the kernel got its named
+state) and the default model on the implicit method.
 
-Regenerate only when the model itself is meant to change:
-    python tests/test_kernel_golden.py --write
+Regenerate only when a model itself is meant to change:
+    python tests/test_kernel_golden.py --write [spec-text|default]
 """
 from __future__ import annotations
 
@@ -20,14 +22,17 @@ from tethernet_ros.core.episode import CaptureSimulation, run_simulation
 from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros.core.scenario import scenario_for
 
-GOLDEN = os.path.join(os.path.dirname(__file__), "data", "golden_episodes.json")
+DATA = os.path.join(os.path.dirname(__file__), "data")
+#: golden file per model
+GOLDEN = {"spec-text": os.path.join(DATA, "golden_episodes.json"),
+          "default": os.path.join(DATA, "golden_episodes_default.json")}
 CASES = [(name, seed) for name in ("baseline", "suboptimal", "mass-min", "time-min")
          for seed in (None, 3)]
 
 
-def golden_config() -> SimConfig:
-    """The model the golden file was recorded with."""
-    return SimConfig.preset("spec-text")
+def golden_config(model: str) -> SimConfig:
+    """The model a golden file was recorded with."""
+    return SimConfig.preset("spec-text") if model == "spec-text" else SimConfig()
 
 
 def state_digest(sim) -> str:
@@ -39,27 +44,29 @@ def state_digest(sim) -> str:
     return h.hexdigest()
 
 
-def run_case(name, seed) -> dict:
+def run_case(model, name, seed) -> dict:
     sample = None if seed is None else NoiseModel().sample(seed)
-    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS[name], sample, golden_config()))
+    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS[name], sample, golden_config(model)))
     r = run_simulation(sim, record_trace=False)
     return dict(design=name, seed=seed, success=r.success, settled_cqi=repr(r.settled_cqi),
                 locked_pairs=r.locked_pairs, closing_time=repr(r.closing_time), steps=r.steps,
                 digest=state_digest(sim))
 
 
-def _golden():
-    with open(GOLDEN) as f:
+def _golden(model):
+    with open(GOLDEN[model]) as f:
         return {(d["design"], d["seed"]): d for d in json.load(f)}
 
 
+@pytest.mark.parametrize("model", sorted(GOLDEN))
 @pytest.mark.parametrize("name,seed", CASES)
-def test_episode_bit_identical_to_golden(name, seed):
-    assert run_case(name, seed) == _golden()[(name, seed)]
+def test_episode_bit_identical_to_golden(model, name, seed):
+    assert run_case(model, name, seed) == _golden(model)[(name, seed)]
 
 
 if __name__ == "__main__" and "--write" in sys.argv:
-    out = [run_case(n, s) for n, s in CASES]
-    with open(GOLDEN, "w") as f:
-        json.dump(out, f, indent=1)
-    print(f"wrote {GOLDEN}")
+    for model in [m for m in GOLDEN if m in sys.argv] or list(GOLDEN):
+        out = [run_case(model, n, s) for n, s in CASES]
+        with open(GOLDEN[model], "w") as f:
+            json.dump(out, f, indent=1)
+        print(f"wrote {GOLDEN[model]}")
