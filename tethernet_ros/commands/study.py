@@ -5,6 +5,8 @@ random numbers, with its table and figure written under docs/studies/.
                to the source's text, and all of the text together (issue 9)
   convergence  the default against half its step (P*_s, flipped verdicts, mean T)
   agreement    the default integrator against the other one on the same model
+  compare      two results files (e.g. of `tethernet validate` at two commits or with two
+               configurations), matched by design and seed: --a FILE --b FILE
 
 Every cell of every design runs on the same samples (sample i of base seed B uses noise
 seed B*1000003+i).  Each finished sample is appended to the study's results file, so an
@@ -27,7 +29,15 @@ HELP = "model and method studies over common random numbers (tables and figures 
 def add_arguments(p):
     from ..studies.cells import STUDIES
 
-    p.add_argument("study", choices=sorted(STUDIES), help="which study")
+    p.add_argument("study", choices=sorted(STUDIES) + ["compare"], help="which study")
+    p.add_argument("--a", default=None, metavar="FILE.jsonl", help="compare: the first results file")
+    p.add_argument("--b", default=None, metavar="FILE.jsonl", help="compare: the second results file")
+    for side in ("a", "b"):
+        p.add_argument(f"--key-{side}", default=None, metavar="PREFIX,...",
+                       help=f"compare: only these run keys in --{side} (comma-separated prefixes)")
+    p.add_argument("--labels", default="a,b", metavar="A,B", help="compare: the two runs' labels")
+    p.add_argument("--name", default=None, metavar="NAME",
+                   help="file name of the table and figure (default: the study's name)")
     p.add_argument("--designs", default=",".join(REFERENCE_DESIGNS), metavar="A,B",
                    help="reference designs (default: all four)")
     p.add_argument("--samples", type=int, default=200, metavar="N",
@@ -51,8 +61,10 @@ def run(args) -> int:
     from ..studies.paired import CellStats, PairedStats
     from ..studies.report import comparison_table, plot_study, study_table
 
-    check_backend_arguments(args)
     designs = [d.strip() for d in args.designs.split(",") if d.strip()]
+    if args.study == "compare":
+        return _compare(args, designs)
+    check_backend_arguments(args)
     for d in designs:
         if d not in REFERENCE_DESIGNS:
             raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)}")
@@ -124,5 +136,54 @@ def run(args) -> int:
                            "within_half_width": p.within_half_width} for p in paired.values()]}
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     plot_study(designs, cells, stats, outdir / f"{name}.png", title)
+    print(md)
+    return 0
+
+
+def _compare(args, designs) -> int:
+    """Paired table and figure of two results files (no simulation)."""
+    from ..errors import UserError
+    from ..studies.cells import Cell
+    from ..studies.files import samples_by_design
+    from ..studies.paired import CellStats, PairedStats
+    from ..studies.report import comparison_table, plot_study
+
+    if not (args.a and args.b):
+        raise UserError("compare: --a FILE and --b FILE are both needed")
+    labels = [x.strip() for x in args.labels.split(",")]
+    if len(labels) != 2 or not all(labels) or labels[0] == labels[1]:
+        raise UserError(f"--labels {args.labels!r}: two different labels, A,B")
+    runs = []
+    for path, key in ((args.a, args.key_a), (args.b, args.key_b)):
+        if not Path(path).is_file():
+            raise UserError(f"compare: results file {path!r} does not exist")
+        try:
+            runs.append(samples_by_design(path, key))
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    stats, paired, used = {}, {}, []
+    for d in designs:
+        if d not in runs[0] or d not in runs[1]:
+            continue
+        seeds = sorted({s.seed for s in runs[0][d]} & {s.seed for s in runs[1][d]})
+        if args.samples:
+            seeds = seeds[:args.samples]
+        pick = [[s for s in run[d] if s.seed in set(seeds)] for run in runs]
+        a = CellStats.from_samples(labels[0], d, pick[0])
+        b = CellStats.from_samples(labels[1], d, pick[1])
+        stats[(labels[0], d)], stats[(labels[1], d)] = a, b
+        paired[(labels[1], d)] = PairedStats.from_samples(a, b, pick[0], pick[1])
+        used.append(d)
+    if not used:
+        raise UserError("compare: the two files share no design with samples of the same seeds")
+    name = args.name or "compare"
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    cells = [Cell(labels[0], args.a, None), Cell(labels[1], args.b, None)]
+    table = comparison_table(used, paired, labels[1])
+    md = (f"# {name}: {labels[0]} (a) against {labels[1]} (b), paired by seed\n\n"
+          f"- a: `{args.a}`\n- b: `{args.b}`\n\n{table}\n")
+    (outdir / f"{name}.md").write_text(md)
+    plot_study(used, cells, stats, outdir / f"{name}.png", f"{labels[0]} vs {labels[1]}")
     print(md)
     return 0
