@@ -2,7 +2,7 @@
 random numbers, with its table and figure written under docs/studies/.
 
   models       the default model, each modelling choice of SPEC section 10 switched alone
-               to the source's text, and all of the text together (issue 9)
+               to the source's text, and all of the text together
   convergence  the default against half its step (P*_s, flipped verdicts, mean T)
   agreement    the default integrator against the other one on the same model
   compare      two results files (e.g. of `tethernet validate` at two commits or with two
