@@ -18,7 +18,7 @@ from .geometry import local_sdf
 from .state import CONTACT_FREQUENCY
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def contact_forces(wk, bodies, target, prm, diag):
     """Add the contact forces to wk.FX..; return the force (fx, fy, fz) and torque about
     its CoM (tx, ty, tz) on the target, in the world frame.  wk.R must hold the target's

@@ -20,7 +20,7 @@ from .state import LOCK_RATCHET
 LOCK_PASSES = 4
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def closing_forces(wk, ring, close_force, lock_model, lock_dist):
     """Add F_c along the drawstring pairs it pulls (every pair; under the latch model only
     those at least ``lock_dist`` apart) to wk.FX.. (a ring body in two pairs gets both pulls
@@ -61,7 +61,7 @@ def closing_forces(wk, ring, close_force, lock_model, lock_dist):
             acc[2, a] = 0.0
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def update_locks(wk, ring, lock_dist, step):
     """Lock every pair closer than ``lock_dist``; a locked pair's maximum distance (the
     ratchet's limit; under the latch model only a record) follows it down."""
@@ -82,7 +82,7 @@ def update_locks(wk, ring, lock_dist, step):
             ring.maxdist[p] = d
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def project_locks(wk, w, ring):
     """Hold every locked pair within its maximum distance: positions are projected along
     the pair (mass-weighted, so momentum is kept) and the separating relative velocity is

@@ -24,7 +24,7 @@ from .threads import gather_thread_forces, grid_thread_forces, link_forces
 from .work import make_work, store_work
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def integrate_bodies(wk, w, dt):
     """Symplectic Euler on every body: v += dt w F, then x += dt v (vectorised)."""
     X, Y, Z, VX, VY, VZ, FX, FY, FZ = wk.X, wk.Y, wk.Z, wk.VX, wk.VY, wk.VZ, wk.FX, wk.FY, wk.FZ
@@ -38,7 +38,7 @@ def integrate_bodies(wk, w, dt):
         Z[i] += dt * VZ[i]
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def net_centre_z(wk, mass, nodes, total_mass):
     """z of the centre of mass of ``nodes`` (m)."""
     zc = 0.0
@@ -47,7 +47,7 @@ def net_centre_z(wk, mass, nodes, total_mass):
     return zc / total_mass
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def closing_events(wk, bodies, links, ring, tether, target, prm, ev, trigger_mass):
     """After a step: start closing when z(net CoM) - z(target CoM) reaches the threshold
     (and lock the winch), then update the drawstring locks."""

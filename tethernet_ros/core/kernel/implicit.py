@@ -142,7 +142,7 @@ def _grid_row(dx, dy, dz, rest, kd, gd, ikt, iks, inv_h):
     return dx * inv, dy * inv, dz * inv, b, g, ik
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def prepare_thread_rows(wk, rows, grid, links, w, h, sol):
     """Rows of every grid thread and active other thread at the start of the step, and the
     last step's impulses along this step's directions, in the explicit method's force
@@ -242,7 +242,7 @@ def prepare_thread_rows(wk, rows, grid, links, w, h, sol):
         wk.EF[m, 2] = -sol.link_p[m] * nz
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def apply_gathered(wk, w):
     """v += w P for the per-body impulse sums in wk.FX.. (N s)."""
     for i in range(wk.VX.shape[0]):
@@ -279,7 +279,7 @@ def _solve_row(va_x, va_y, va_z, vb_x, vb_y, vb_z, wa, wb, nx, ny, nz, b, g, ik,
     vb_z[jb] += wb[jb] * nz * dP
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def sweep_grid(wk, rows, grid, w, sol):
     """One Gauss-Seidel sweep over the grid threads, colour by colour: x-threads of even,
     then odd columns; y-threads of even, then odd rows (threads of one colour share no
@@ -327,7 +327,7 @@ def sweep_grid(wk, rows, grid, w, sol):
                            br[j], gr[j], ikr[j], pr, j, j, j)
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def sweep_links(wk, rows, links, w, sol):
     """One Gauss-Seidel sweep over the other threads (corner threads, tether)."""
     VX, VY, VZ = wk.VX, wk.VY, wk.VZ
@@ -346,7 +346,7 @@ def sweep_links(wk, rows, links, w, sol):
         _apply(wk, w, a, b, nx, ny, nz, Pn - P)
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
     """A contact row for every body touching the target or close enough to touch it
     within the step (speculative); warm-start impulses applied.  wk.R must hold the
@@ -433,7 +433,7 @@ def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
     rows.n_rows[0] = n_rows
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def sweep_contacts(wk, rows, bodies, prm, sol):
     """One Gauss-Seidel sweep over the contact rows: the normal impulse (pushing only),
     then the friction impulse that stops the slip, kept if within mu_static P_n, else
@@ -490,7 +490,7 @@ def sweep_contacts(wk, rows, bodies, prm, sol):
         pt[2] = qz
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def prepare_lock_rows(wk, rows, ring, w, h, sol):
     """Rigid one-sided rows of the ratchet locks (C = d - maxdist <= 0 at the step's end);
     warm-start impulses applied."""
@@ -519,7 +519,7 @@ def prepare_lock_rows(wk, rows, ring, w, h, sol):
         _apply(wk, w, a, b, rows.qnx[p], rows.qny[p], rows.qnz[p], sol.lock_p[p])
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def sweep_locks(wk, rows, ring, w, sol):
     VX, VY, VZ = wk.VX, wk.VY, wk.VZ
     for p in range(ring.pairs.shape[0]):
@@ -537,7 +537,7 @@ def sweep_locks(wk, rows, ring, w, sol):
         _apply(wk, w, a, b, nx, ny, nz, Pn - P)
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def contact_reaction(wk, rows, target, sol, diag):
     """Total impulse (N s) of the contacts on the target and its moment about the target's
     CoM (N m s), world frame: minus the impulses on the bodies, acting at their centres."""
@@ -569,7 +569,7 @@ def contact_reaction(wk, rows, target, sol, diag):
     return px, py, pz, lx, ly, lz
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def clear_inactive_contacts(rows, sol):
     """Forget the friction of bodies without a contact row this step."""
     n = sol.contact_pn.shape[0]

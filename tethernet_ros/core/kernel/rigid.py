@@ -6,7 +6,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def integrate_target(target, R, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt, inv_mass):
     """Advance the target by dt under the force (N) and torque about its CoM (N m), both in
     the world frame.  R: its rotation matrix at the start of the step."""

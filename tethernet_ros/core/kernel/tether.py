@@ -10,7 +10,7 @@ from numba import njit
 from .state import DAMPING_ELEMENT
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def pay_out_tether(wk, tether):
     """Place the tether's masses on the straight line winch -> net centre, evenly, with
     the matching interpolated velocities."""
@@ -29,7 +29,7 @@ def pay_out_tether(wk, tether):
         VZ[t] = VZ[wb] + f * (VZ[cn] - VZ[wb])
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def lock_tether(wk, bodies, links, tether, prm):
     """The winch locks the paid-out length: the tether segments get their rest lengths
     (the current ones), stiffness E A / l and damping, and the tether's lumped masses

@@ -11,7 +11,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def grid_thread_forces(wk, grid):
     """Force of every grid thread on its first end, into wk.HX.. (x-threads) and wk.UX..
     (y-threads)."""
@@ -84,7 +84,7 @@ def grid_thread_forces(wk, grid):
             uz[j] = s_ * dz
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def link_forces(wk, links):
     """Force of every active other thread on its first end, into wk.EF."""
     X, Y, Z, VX, VY, VZ, EF = wk.X, wk.Y, wk.Z, wk.VX, wk.VY, wk.VZ, wk.EF
@@ -114,7 +114,7 @@ def link_forces(wk, links):
         EF[m, 2] = F * inv * dz
 
 
-@njit(cache=True, error_model='numpy')
+@njit(cache=True, inline='always', error_model='numpy')
 def gather_thread_forces(wk, grid, links):
     """Sum the thread forces per body into wk.FX.. (overwriting them) in a mirror-invariant
     order: (left + right) + (down + up) for grid nodes, each pair's sum commutative, then

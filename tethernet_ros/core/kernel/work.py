@@ -17,7 +17,7 @@ Work = namedtuple("Work", "X Y Z VX VY VZ FX FY FZ HX HY HZ UX UY UZ EF pair_f a
                           "lock_sep R")
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def make_work(bodies, grid, links, ring):
     """Scratch for one ``advance`` call, with the bodies' state copied in."""
     N = bodies.x.shape[0]
@@ -42,7 +42,7 @@ def make_work(bodies, grid, links, ring):
     return wk
 
 
-@njit(cache=True)
+@njit(cache=True, inline='always')
 def store_work(wk, bodies):
     """Copy the structure-of-arrays state back into the bodies' (N, 3) arrays."""
     x = bodies.x
