@@ -78,8 +78,8 @@ def run(args) -> int:
         if unknown:
             raise UserError(f"--cells: unknown {sorted(unknown)}; allowed {[c.label for c in cells]}")
         cells = [cells[0]] + [c for c in cells[1:] if c.label in keep]
-    specs = [RunSpec(REFERENCE_DESIGNS[d], config=c.config, label=f"{c.label}|{d}")
-             for c in cells for d in designs]
+    specs = [RunSpec(REFERENCE_DESIGNS[d], noise_model=c.noise, config=c.config,
+                     label=f"{c.label}|{d}") for c in cells for d in designs]
     results = Path(args.results or f"out/studies/{args.study}_seed{args.seed}.jsonl")
     results.parent.mkdir(parents=True, exist_ok=True)
     progress = None

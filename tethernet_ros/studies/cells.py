@@ -7,19 +7,21 @@ solver's sweeps.  ``agreement``: the default integrator against the other one, s
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..core.config import SimConfig
+from ..core.noise import NoiseModel
 
 
 @dataclass(frozen=True)
 class Cell:
-    """One column of a study: ``label`` (short), ``what`` (its source or meaning) and the
-    configuration its episodes run with."""
+    """One column of a study: ``label`` (short), ``what`` (its source or meaning), the
+    configuration its episodes run with and the noise model they draw from."""
 
     label: str
     what: str
     config: SimConfig
+    noise: NoiseModel = field(default_factory=NoiseModel)
 
 
 #: Each choice of the default model with the value the source's text gives it instead:
@@ -76,6 +78,9 @@ def model_cells(base: SimConfig) -> list[Cell]:
     if base.integrator == "implicit":
         for label, overrides, what in OPEN_CHOICES:
             cells.append(Cell(label, what, base.replace(**overrides)))
+    cells.append(Cell("orientation about y", "the target's orientation noise about y (across the "
+                      "line of sight) instead of z, SPEC section 1's alternative", base,
+                      NoiseModel(orientation_axis="y")))
     return cells
 
 
