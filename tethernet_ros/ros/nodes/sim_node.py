@@ -178,10 +178,17 @@ class SimNode(Node):
 
         sim = PublishingSimulation(scenario, every, publish, self.stopping)
         n_subs = int(self._p("min_state_subscribers"))
-        if not wait_for_subscribers(self.pub_state, n_subs, float(self._p("match_timeout")),
-                                    self.context):
+        timeout = float(self._p("match_timeout"))
+        if not wait_for_subscribers(self.pub_state, n_subs, timeout, self.context):
             log.warning(f"starting with {self.pub_state.get_subscription_count()} state "
                         f"subscriber(s) (expected {n_subs})")
+        # the other state topics: wait until every subscriber the graph shows (the recorder,
+        # a viewer) is matched, so that none misses the first states
+        for pub in (self.pub_pose, self.pub_clock, self.pub_markers):
+            want = self.node.count_subscribers(pub.topic_name)
+            if want and not wait_for_subscribers(pub, want, timeout, self.context):
+                log.warning(f"{pub.topic_name}: {pub.get_subscription_count()} of {want} "
+                            "subscribers matched at the start")
         log.info(f"episode {setup.episode_id!r}: dt = {dt:.3e} s, publishing every {every} steps")
         try:
             sim.publish()                                   # the initial state
