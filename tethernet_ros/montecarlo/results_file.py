@@ -27,14 +27,12 @@ class ResultsFile:
         self.path = Path(path)
         self.skipped_lines = 0
 
-    def load(self) -> dict[tuple[str, int], SampleResult]:
-        """Records by (key, seed); a record with a trace wins over one without, else the
-        later one.  A partial last line is cut off the file; unreadable lines are skipped."""
-        out: dict[tuple[str, int], SampleResult] = {}
-        if not self.path.exists():
-            return out
-        self._repair_tail()
+    def records(self):
+        """Every readable record in file order, as (the raw JSON object, its
+        :class:`SampleResult`); unreadable lines are counted in ``skipped_lines``."""
         self.skipped_lines = 0
+        if not self.path.exists():
+            return
         with self.path.open("r", encoding="utf-8") as f:
             for line in f:
                 line = line.strip()
@@ -46,10 +44,20 @@ class ResultsFile:
                 except (ValueError, TypeError, KeyError):
                     self.skipped_lines += 1
                     continue
-                k = (r.key, r.seed)
-                if k in out and out[k].trace is not None and r.trace is None:
-                    continue
-                out[k] = r
+                yield rec, r
+
+    def load(self) -> dict[tuple[str, int], SampleResult]:
+        """Records by (key, seed); a record with a trace wins over one without, else the
+        later one.  A partial last line is cut off the file; unreadable lines are skipped."""
+        out: dict[tuple[str, int], SampleResult] = {}
+        if not self.path.exists():
+            return out
+        self._repair_tail()
+        for _rec, r in self.records():
+            k = (r.key, r.seed)
+            if k in out and out[k].trace is not None and r.trace is None:
+                continue
+            out[k] = r
         return out
 
     def _repair_tail(self) -> None:

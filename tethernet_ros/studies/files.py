@@ -8,12 +8,11 @@ ambiguous and refused.
 """
 from __future__ import annotations
 
-import json
 from collections import defaultdict
 from pathlib import Path
 
 from ..core.design import REFERENCE_DESIGNS, Design
-from ..montecarlo import SampleResult
+from ..montecarlo import ResultsFile, SampleResult
 
 
 def samples_by_design(path: str | Path, key: str | None = None) -> dict[str, list[SampleResult]]:
@@ -24,22 +23,16 @@ def samples_by_design(path: str | Path, key: str | None = None) -> dict[str, lis
     names = {d.to_dict().__repr__(): n for n, d in REFERENCE_DESIGNS.items()}
     by: dict[str, dict[int, SampleResult]] = defaultdict(dict)
     keys: dict[str, set] = defaultdict(set)
-    with Path(path).open(encoding="utf-8") as f:
-        for line in f:
-            line = line.strip()
-            if not line:
-                continue
-            try:
-                rec = json.loads(line)
-                r = SampleResult.from_record(rec)
-                design = Design.from_dict(rec["design"])
-            except (ValueError, TypeError, KeyError):
-                continue
-            name = names.get(design.to_dict().__repr__())
-            if name is None or (prefixes and not r.key.startswith(prefixes)):
-                continue
-            keys[name].add(r.key)
-            by[name][r.seed] = r
+    for rec, r in ResultsFile(path).records():
+        try:
+            design = Design.from_dict(rec["design"])
+        except (ValueError, TypeError, KeyError):
+            continue
+        name = names.get(design.to_dict().__repr__())
+        if name is None or (prefixes and not r.key.startswith(prefixes)):
+            continue
+        keys[name].add(r.key)
+        by[name][r.seed] = r
     for name, ks in keys.items():
         if len(ks) > 1:
             raise ValueError(f"results file {str(path)!r}: design {name!r} has records of "

@@ -334,16 +334,9 @@ def sweep_links(wk, rows, links, w, sol):
     for m in range(links.pairs.shape[0]):
         if rows.lik[m] == 0.0:
             continue
-        a = links.pairs[m, 0]
-        b = links.pairs[m, 1]
-        nx = rows.lnx[m]
-        ny = rows.lny[m]
-        nz = rows.lnz[m]
-        jv = nx * (VX[b] - VX[a]) + ny * (VY[b] - VY[a]) + nz * (VZ[b] - VZ[a])
-        P = sol.link_p[m]
-        Pn = min(P - (jv + rows.lb[m] + rows.lg[m] * P) * rows.lik[m], 0.0)
-        sol.link_p[m] = Pn
-        _apply(wk, w, a, b, nx, ny, nz, Pn - P)
+        _solve_row(VX, VY, VZ, VX, VY, VZ, w, w, rows.lnx[m], rows.lny[m], rows.lnz[m],
+                   rows.lb[m], rows.lg[m], rows.lik[m], sol.link_p, m, links.pairs[m, 0],
+                   links.pairs[m, 1])
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -521,20 +514,13 @@ def prepare_lock_rows(wk, rows, ring, w, h, sol):
 
 @njit(cache=True, inline='always', error_model='numpy')
 def sweep_locks(wk, rows, ring, w, sol):
+    """One Gauss-Seidel sweep over the ratchet locks (rigid rows: no compliance)."""
     VX, VY, VZ = wk.VX, wk.VY, wk.VZ
     for p in range(ring.pairs.shape[0]):
         if rows.qik[p] == 0.0:
             continue
-        a = ring.pairs[p, 0]
-        b = ring.pairs[p, 1]
-        nx = rows.qnx[p]
-        ny = rows.qny[p]
-        nz = rows.qnz[p]
-        jv = nx * (VX[b] - VX[a]) + ny * (VY[b] - VY[a]) + nz * (VZ[b] - VZ[a])
-        P = sol.lock_p[p]
-        Pn = min(P - (jv + rows.qb[p]) * rows.qik[p], 0.0)
-        sol.lock_p[p] = Pn
-        _apply(wk, w, a, b, nx, ny, nz, Pn - P)
+        _solve_row(VX, VY, VZ, VX, VY, VZ, w, w, rows.qnx[p], rows.qny[p], rows.qnz[p],
+                   rows.qb[p], 0.0, rows.qik[p], sol.lock_p, p, ring.pairs[p, 0], ring.pairs[p, 1])
 
 
 @njit(cache=True, inline='always', error_model='numpy')
