@@ -7,8 +7,10 @@ ratio of the two methods' wall times, in one run.
 
 Runs on one core (the kernels are single-threaded).  The methods alternate episode by
 episode (implicit, explicit, implicit, ...) so that a drift of the machine's speed hits
-both alike; the median of the repeats is printed.  The first call of each method compiles
-its kernel or loads it from numba's on-disk cache; that time is reported apart.
+both alike; the median of the repeats is printed.  Wall time and this process's CPU time
+are both given: on a machine shared with other jobs the CPU time is the steadier one.
+The first call of each method compiles its kernel or loads it from numba's on-disk cache;
+that time is reported apart.
 """
 from __future__ import annotations
 
@@ -65,27 +67,32 @@ def main(argv=None) -> int:
     print(f"import {t_import:.2f} s; implicit: {implicit.implicit_iterations} sweeps at "
           f"{implicit.implicit_dt:g} s; median of {args.repeats} episode(s) per cell")
     print(f"{'design':<11} {'method':<9} {'dt (s)':>9} {'steps':>8} {'sim (s)':>8} {'wall (s)':>9} "
-          f"{'RTF':>6} {'us/step':>8} {'vs ref':>7} {'expl/impl':>9}  outcome")
+          f"{'RTF':>6} {'cpu (s)':>8} {'RTF cpu':>8} {'us/step':>8} {'vs ref':>7} {'expl/impl':>9}  outcome")
     for name in args.designs.split(","):
         d = REFERENCE_DESIGNS[name]
         walls = {label: [] for label, _ in methods}
+        cpus = {label: [] for label, _ in methods}
         res = {}
         for _ in range(args.repeats):
             for label, cfg in methods:
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 res[label] = run_episode(d, None, cfg, record_trace=not args.no_trace)
                 walls[label].append(time.perf_counter() - t0)
+                cpus[label].append(time.process_time() - c0)
         med = {label: statistics.median(w) for label, w in walls.items()}
+        cpu = {label: statistics.median(c) for label, c in cpus.items()}
         for label, cfg in methods:
             r = res[label]
             wall = med[label]
             dt = scenario_for(d, None, cfg).dt
-            ratio = (f"{med['explicit'] / med['implicit']:9.1f}" if "explicit" in med and label == "implicit"
+            ratio = (f"{cpu['explicit'] / cpu['implicit']:9.1f}" if "explicit" in cpu and label == "implicit"
                      else f"{'':9s}")
             outcome = "success" if r.success else r.failure_reason
+            c = cpu[label]
             print(f"{name:<11} {label:<9} {dt:9.3e} {r.steps:8d} {r.completion_time:8.2f} {wall:9.3f} "
-                  f"{r.completion_time / wall:6.1f} {wall / r.steps * 1e6:8.2f} "
-                  f"{REFERENCE_CPU_SECONDS / wall:6.0f}x {ratio}  {outcome}", flush=True)
+                  f"{r.completion_time / wall:6.1f} {c:8.3f} {r.completion_time / c:8.1f} "
+                  f"{c / r.steps * 1e6:8.2f} {REFERENCE_CPU_SECONDS / c:6.0f}x {ratio}  {outcome}",
+                  flush=True)
     return 0
 
 
