@@ -56,6 +56,8 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
         "table": rows, "run_dir": str(paths["settings"].parent),
         "files": {k: str(v) for k, v in paths.items()}, "backend": problem.describe(),
         "variables": list(problem.variable_names),
+        "published": ({"design": case.reference, **po} if case.reference and
+                      (po := problem.published_outcome(case.reference)) else None),
         **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
     }
     if best is not None:

@@ -75,6 +75,11 @@ class DesignProblem(Protocol):
     def reference_design(self, name: str) -> np.ndarray | None:
         """The design vector of a named reference design, or None if there is none."""
 
+    def published_outcome(self, name: str) -> dict | None:
+        """What the source study published for a named reference design (its Table 4):
+        ``mass`` (kg), ``mean_completion_time`` (s), ``p_success_optimisation`` (None where
+        not given) and ``p_success_validated``; None if nothing is published."""
+
     def settings(self) -> dict:
         """JSON-ready settings that determine the evaluations (a run refuses to resume
         under other settings), with ``model_version``: a change of it only warns."""

@@ -115,6 +115,13 @@ def results_markdown(summary: dict) -> str:
             val, cp, vt = "not validated", "", ""
         out.append("| " + " | ".join([r["design"], _f(r["mass"], 2),
                                       _f(r["mean_completion_time"], 2), opt, val, cp, vt]) + " |")
+    pub = summary.get("published")
+    if pub:
+        p_opt = pub["p_success_optimisation"]
+        out.append("| " + " | ".join([
+            f"source's {pub['design']} (Table 4)", _f(pub["mass"], 2),
+            _f(pub["mean_completion_time"], 1), "n/a" if p_opt is None else _f(p_opt, 2),
+            _f(pub["p_success_validated"]), "", ""]) + " |")
     out += ["", "Design variables:", "",
             "| design | m_c (kg) | L_n (m) | r_n (m) | d_L (m) | V_e (m/s) | d_c (m) |",
             "|---|---|---|---|---|---|---|"]

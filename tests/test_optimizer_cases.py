@@ -243,6 +243,10 @@ def test_cli_optimize_json_tiny_real_run(cli_run):
     assert (run_dir / "convergence.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     md = (run_dir / "results.md").read_text()
     assert "validated P*_s (N=3)" in md and "best (Case 1)" in md and "m_a (kg)" in md
+    # the source's Table 4 row of the case's reference design stands beside the result
+    assert d["published"] == {"design": "mass-min", "mass": 7.53, "mean_completion_time": 27.4,
+                              "p_success_optimisation": 0.98, "p_success_validated": 0.983}
+    assert "| source's mass-min (Table 4) | 7.53 | 27.4 | 0.98 | 0.983 |" in md
     rows = (run_dir / "results.csv").read_text().splitlines()
     assert rows[0].startswith("case,design,evaluation,m_c") and len(rows) == 2
     # sequential sampling (the default): one sample record per sample the observations rest

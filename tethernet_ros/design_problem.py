@@ -18,7 +18,8 @@ from optimizer.run import run_optimization
 
 from . import montecarlo
 from .core.config import SimConfig
-from .core.design import DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABLE_NAMES, Design, system_mass
+from .core.design import (DESIGN_BOUNDS, PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
+                          system_mass)
 from .core.noise import NoiseModel
 
 __all__ = ["SimulatorProblem", "optimize_design"]
@@ -64,6 +65,11 @@ class SimulatorProblem:
         """X of a SPEC section 8 reference design (None for an unknown name)."""
         ref = REFERENCE_DESIGNS.get(name)
         return None if ref is None else ref.to_vector()
+
+    def published_outcome(self, name: str) -> dict | None:
+        """The source's Table 4 row of a reference design (SPEC section 11)."""
+        po = PUBLISHED_OUTCOMES.get(name)
+        return None if po is None else asdict(po)
 
     def settings(self) -> dict:
         return {"config": self.config.to_dict(), "noise_model": asdict(self.noise_model),
