@@ -16,6 +16,7 @@ acquisition.py    probability of feasibility, expected improvement (plus), maxim
 observation.py    an evaluated design; binomial_observation
 selection.py      the choice of the final design
 finish.py         choose, validate, summarise; report.py: history.csv, table, figure
+status.py         how far a run has come (read from its directory, also while it runs)
 checkpoint.py     atomic checkpoints; jsonio.py: the NaN-to-null and atomic-write rules
 testproblems.py   standard constrained test problems with known optima
 ================  =========================================================================

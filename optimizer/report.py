@@ -153,11 +153,11 @@ def _samples_text(summary: dict) -> str:
 
 
 def plot_convergence(path: str | Path, history, case: Case, best=None,
-                     validated_p: float | None = None) -> Path:
+                     validated_p: float | None = None, best_label: str = "chosen design") -> Path:
     """Three panels over the evaluation number: the objective of each evaluated design
     (filled: observed feasible, hollow: infeasible) with the best feasible so far; P*_s
     with the threshold; m_a (with C_m for Case 2).  The seed phase is shaded and the chosen
-    design starred (with its validated P*_s if given)."""
+    design starred (with its validated P*_s if given; ``best_label`` names it)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -197,7 +197,7 @@ def plot_convergence(path: str | Path, history, case: Case, best=None,
     ax.set_xlabel("evaluation")
     if best is not None and n:
         i = next(k for k, o in enumerate(history) if o is best) + 1
-        axes[0].plot([i], [best.objective], "*", color="tab:red", ms=13, label="chosen design")
+        axes[0].plot([i], [best.objective], "*", color="tab:red", ms=13, label=best_label)
         axes[1].plot([i], [best.constraints[P_SUCCESS]], "*", color="tab:red", ms=13)
         if validated_p is not None and math.isfinite(validated_p):
             axes[1].plot([i], [validated_p], "D", mfc="none", mec="tab:red", ms=8,

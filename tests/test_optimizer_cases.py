@@ -257,6 +257,25 @@ def test_cli_optimize_json_tiny_real_run(cli_run):
     assert len((run_dir / "samples.jsonl").read_text().splitlines()) == d["episodes"]
 
 
+def test_cli_status_reads_the_run_directory(cli_run):
+    run_dir, d, _ = cli_run
+    out = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "optimize", "--status",
+                          "--run-dir", str(run_dir), "--json"],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert out.returncode == 0, out.stderr[-2000:]
+    st = json.loads(out.stdout)
+    assert st["evaluations"] == st["planned"] == d["evaluations"] == 5
+    assert st["episodes"] == d["episodes"] and st["episodes_full"] == d["episodes_full"]
+    assert st["best"]["evaluation"] == d["best_evaluation"]
+    assert st["best"]["objective"] == d["best_objective"]
+    assert st["summary"]["best_evaluation"] == d["best_evaluation"]
+    assert (run_dir / "progress.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    bad = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "optimize", "--status",
+                          "--run-dir", str(run_dir / "nowhere")],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert bad.returncode == 2 and "no run.json" in bad.stderr
+
+
 def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path):
     cli_dir, d, _ = cli_run
     cfg = SimConfig.from_dict(SHORT)

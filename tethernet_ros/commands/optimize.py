@@ -27,7 +27,7 @@ HELP = ("Bayesian optimisation of the net design and actions: Case 1 (--case mas
 
 
 def add_arguments(p):
-    p.add_argument("--case", required=True, choices=("mass", "time"),
+    p.add_argument("--case", default=None, choices=("mass", "time"),
                    help="mass: minimise m_a s.t. P*_s >= 0.98 (Case 1); time: minimise mean T "
                         "s.t. P*_s >= 0.98 and m_a <= 15 kg (Case 2)")
     p.add_argument("--iterations", type=int, default=200, metavar="N",
@@ -51,6 +51,9 @@ def add_arguments(p):
     p.add_argument("--run-dir", default=None, metavar="DIR",
                    help="run directory: checkpoint, samples, results (default "
                         "out/optimize/case1-mass or out/optimize/case2-time)")
+    p.add_argument("--status", action="store_true",
+                   help="print how far the run in --run-dir (or --case's default) has come and "
+                        "draw its convergence so far (progress.png); runs nothing")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir (same settings; --iterations and "
                         "--validation-samples may change)")
@@ -77,6 +80,9 @@ def add_arguments(p):
 
 def check_arguments(args) -> None:
     from ..errors import UserError
+
+    if args.case is None and not (args.status and args.run_dir):
+        raise UserError("--case: required (mass or time), except with --status --run-dir DIR")
 
     for flag, value, low in (("--iterations", args.iterations, 0),
                              ("--seed-points", args.seed_points, 1),
@@ -172,6 +178,26 @@ def _duration(s: float) -> str:
     return f"{s // 3600}h{s % 3600 // 60:02d}m" if s >= 3600 else f"{s // 60}m{s % 60:02d}s"
 
 
+def _status(args) -> int:
+    """``--status``: the run directory's progress (optimizer.status), no episode run."""
+    from optimizer.checkpoint import CheckpointError
+    from optimizer.run import default_run_dir
+    from optimizer.status import run_status, status_text
+
+    from ..errors import UserError
+
+    run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(args.case)
+    try:
+        st = run_status(run_dir)
+    except CheckpointError as exc:
+        raise UserError(str(exc)) from None
+    if args.json:
+        print_json(st)
+    else:
+        print(status_text(st))
+    return 0
+
+
 def run(args) -> int:
     from optimizer.cases import get_case
     from optimizer.checkpoint import CheckpointError
@@ -182,6 +208,8 @@ def run(args) -> int:
     from ..errors import UserError
 
     check_arguments(args)
+    if args.status:
+        return _status(args)
     case = get_case(args.case)
     model = noise_model_from_args(args)
     over = {k: v for k, v in (("settle_time", args.settle_time), ("horizon", args.horizon))
