@@ -55,7 +55,7 @@ from .observation import Observation
 from .problem import DesignProblem
 from .report import write_history
 
-__all__ = ["run_optimization", "RunError", "default_run_dir", "RUN_FILES"]
+__all__ = ["run_optimization", "RunError", "default_run_dir", "read_run_settings", "RUN_FILES"]
 
 RUN_FORMAT = "tethernet_ros.optimizer.run"
 RUN_VERSION = 1
@@ -225,18 +225,25 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     return json_clean(summary)
 
 
-def _check_resume(paths: dict, settings: dict) -> int:
-    """Compare run.json with the requested settings; returns the evaluations done."""
+def read_run_settings(path: str | os.PathLike) -> dict:
+    """A run directory's settings (its run.json); RunError if missing, corrupt or not one."""
+    path = Path(path)
     try:
-        saved = json.loads(paths["settings"].read_text(encoding="utf-8"))
+        saved = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise RunError(f"{paths['settings']} is missing: the run directory is not a run of "
+        raise RunError(f"{path} is missing: the run directory is not a run of "
                        "this tool") from None
     except ValueError:
-        raise RunError(f"{paths['settings']} is corrupt; start a new run in another "
+        raise RunError(f"{path} is corrupt; start a new run in another "
                        "directory") from None
-    if saved.get("format") != RUN_FORMAT:
-        raise RunError(f"{paths['settings']} is not a run settings file of this tool")
+    if not isinstance(saved, dict) or saved.get("format") != RUN_FORMAT:
+        raise RunError(f"{path} is not a run settings file of this tool")
+    return saved
+
+
+def _check_resume(paths: dict, settings: dict) -> int:
+    """Compare run.json with the requested settings; returns the evaluations done."""
+    saved = read_run_settings(paths["settings"])
     for key, value in settings.items():
         if key in _MUTABLE_SETTINGS or key == "model_version":
             continue

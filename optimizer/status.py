@@ -13,12 +13,16 @@ from .checkpoint import CheckpointError, load_checkpoint
 from .finish import sampling_counts
 from .observation import Observation
 from .report import plot_convergence
+from .run import RUN_FILES, RunError, read_run_settings
 
-__all__ = ["run_status", "status_text"]
+__all__ = ["run_status", "status_text", "PROGRESS_FIGURE"]
+
+#: the figure of the run so far, beside the run's own files
+PROGRESS_FIGURE = "progress.png"
 
 
 def _history(run_dir: Path) -> list[Observation]:
-    path = run_dir / "checkpoint.json"
+    path = run_dir / RUN_FILES["checkpoint"]
     if not path.exists():
         return []
     doc = load_checkpoint(path)
@@ -35,19 +39,17 @@ def run_status(run_dir: str | Path, figure: bool = True) -> dict:
     ``wall_time_s`` (sum of the evaluations' wall times, s), ``best`` (evaluation number,
     objective, P*_s with its successes and samples, m_a (kg), mean T (s), the design
     vector) or None, ``summary`` (the finished run's summary.json, or None) and
-    ``figure`` (the path of progress.png, or None)."""
+    ``figure`` (the path of progress.png, or None).  RunError if ``run_dir`` holds no
+    readable run settings, CheckpointError if its checkpoint is unreadable."""
     run_dir = Path(run_dir)
-    settings_path = run_dir / "run.json"
-    if not settings_path.exists():
-        raise CheckpointError(f"{str(run_dir)!r} is not an optimisation run directory "
-                              "(no run.json)")
+    settings_path = run_dir / RUN_FILES["settings"]
+    settings = read_run_settings(settings_path)
     try:
-        settings = json.loads(settings_path.read_text(encoding="utf-8"))
         case = get_case(settings["case"])
         planned = int(settings["seed_points"]) + int(settings["iterations"])
         samples = int(settings["samples"])
     except (ValueError, KeyError, TypeError) as exc:
-        raise CheckpointError(f"{str(settings_path)!r} is unreadable ({exc})") from None
+        raise RunError(f"{settings_path} is unreadable ({exc})") from None
     history = _history(run_dir)
     feasible = [(i, o) for i, o in enumerate(history, 1) if o.feasible]
     best = None
@@ -59,7 +61,7 @@ def run_status(run_dir: str | Path, figure: bool = True) -> dict:
                 "mass": o.info.get("mass"),
                 "mean_completion_time": o.info.get("mean_completion_time"),
                 "x": [float(v) for v in o.x]}
-    summary_path = run_dir / "summary.json"
+    summary_path = run_dir / RUN_FILES["summary"]
     summary = (json.loads(summary_path.read_text(encoding="utf-8"))
                if summary_path.exists() else None)
     out = {"case": case.name, "case_number": case.number, "run_dir": str(run_dir),
@@ -69,7 +71,7 @@ def run_status(run_dir: str | Path, figure: bool = True) -> dict:
            "best": best, "summary": summary, "figure": None}
     if figure and history:
         best_obs = history[best["evaluation"] - 1] if best else None
-        out["figure"] = str(plot_convergence(run_dir / "progress.png", history, case, best_obs,
+        out["figure"] = str(plot_convergence(run_dir / PROGRESS_FIGURE, history, case, best_obs,
                                              best_label="best feasible so far"))
     return out
 

@@ -273,7 +273,7 @@ def test_cli_status_reads_the_run_directory(cli_run):
     bad = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "optimize", "--status",
                           "--run-dir", str(run_dir / "nowhere")],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert bad.returncode == 2 and "no run.json" in bad.stderr
+    assert bad.returncode == 2 and "run.json is missing" in bad.stderr
 
 
 def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path):

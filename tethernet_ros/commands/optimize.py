@@ -181,7 +181,7 @@ def _duration(s: float) -> str:
 def _status(args) -> int:
     """``--status``: the run directory's progress (optimizer.status), no episode run."""
     from optimizer.checkpoint import CheckpointError
-    from optimizer.run import default_run_dir
+    from optimizer.run import RunError, default_run_dir
     from optimizer.status import run_status, status_text
 
     from ..errors import UserError
@@ -189,7 +189,7 @@ def _status(args) -> int:
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(args.case)
     try:
         st = run_status(run_dir)
-    except CheckpointError as exc:
+    except (RunError, CheckpointError) as exc:
         raise UserError(str(exc)) from None
     if args.json:
         print_json(st)
