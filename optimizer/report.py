@@ -156,8 +156,10 @@ def plot_convergence(path: str | Path, history, case: Case, best=None,
                      validated_p: float | None = None, best_label: str = "chosen design") -> Path:
     """Three panels over the evaluation number: the objective of each evaluated design
     (filled: observed feasible, hollow: infeasible) with the best feasible so far; P*_s
-    with the threshold; m_a (with C_m for Case 2).  The seed phase is shaded and the chosen
-    design starred (with its validated P*_s if given; ``best_label`` names it)."""
+    with the threshold; the other quantity of the results table (Case 1: mean T; Case 2:
+    m_a with C_m).  A panel whose values span more than a decade is drawn on a log scale.
+    The seed phase is shaded and the chosen design starred (with its validated P*_s if
+    given; ``best_label`` names it)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -168,7 +170,10 @@ def plot_convergence(path: str | Path, history, case: Case, best=None,
     it = np.arange(1, n + 1)
     obj = np.array([o.objective for o in history]) if n else np.zeros(0)
     p = np.array([o.constraints[P_SUCCESS] for o in history]) if n else np.zeros(0)
-    mass = np.array([float(o.info.get("mass") or math.nan) for o in history]) if n else np.zeros(0)
+    other_key, other_label = (("mean_completion_time", "mean T (s)") if case.objective == "mass"
+                              else ("mass", "m_a (kg)"))
+    other = (np.array([float(o.info.get(other_key) or math.nan) for o in history]) if n
+             else np.zeros(0))
     feas = np.array([o.feasible for o in history], dtype=bool) if n else np.zeros(0, bool)
     n_seed = sum(1 for o in history if o.acquisition.get("phase", "initial") == "initial")
     best_so_far = np.full(n, np.nan)
@@ -190,11 +195,15 @@ def plot_convergence(path: str | Path, history, case: Case, best=None,
     ax.set_ylabel("P*_s (optimisation samples)")
     ax.set_ylim(-0.03, 1.03)
     ax = axes[2]
-    ax.plot(it, mass, ".", color="tab:purple", ms=5)
-    if case.mass_limit is not None:
+    ax.plot(it, other, ".", color="tab:purple", ms=5)
+    if case.mass_limit is not None and other_key == "mass":
         ax.axhline(case.mass_limit, color="r", ls=":", lw=1, label=f"C_m = {case.mass_limit:g} kg")
-    ax.set_ylabel("m_a (kg)")
+    ax.set_ylabel(other_label)
     ax.set_xlabel("evaluation")
+    for ax, values in ((axes[0], obj), (axes[2], other)):
+        v = values[np.isfinite(values) & (values > 0)]
+        if v.size and v.max() > 10 * v.min():
+            ax.set_yscale("log")
     if best is not None and n:
         i = next(k for k, o in enumerate(history) if o is best) + 1
         axes[0].plot([i], [best.objective], "*", color="tab:red", ms=13, label=best_label)
@@ -202,7 +211,7 @@ def plot_convergence(path: str | Path, history, case: Case, best=None,
         if validated_p is not None and math.isfinite(validated_p):
             axes[1].plot([i], [validated_p], "D", mfc="none", mec="tab:red", ms=8,
                          label="validated P*_s")
-        axes[2].plot([i], [mass[i - 1]], "*", color="tab:red", ms=13)
+        axes[2].plot([i], [other[i - 1]], "*", color="tab:red", ms=13)
     for ax in axes:
         if n_seed:
             ax.axvspan(0.5, min(n_seed, max(n, 1)) + 0.5, color="0.92", zorder=0)

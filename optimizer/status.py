@@ -1,7 +1,8 @@
 """How far a run has come, read from its directory while it runs or after it stopped:
 evaluations done and planned, samples drawn, the best design observed feasible so far and
-the convergence figure so far (``progress.png``; nothing is validated).  Reads only; the
-run's own files stay as they are."""
+the convergence figure so far (``progress.png``: the best design observed feasible, or
+for a finished run its chosen design with the validated P*_s).  Reads only; the run's own
+files stay as they are."""
 from __future__ import annotations
 
 import json
@@ -71,8 +72,14 @@ def run_status(run_dir: str | Path, figure: bool = True) -> dict:
            "best": best, "summary": summary, "figure": None}
     if figure and history:
         best_obs = history[best["evaluation"] - 1] if best else None
+        label, validated = "best feasible so far", None
+        chosen = (summary or {}).get("best_evaluation")
+        if isinstance(chosen, int) and 1 <= chosen <= len(history):
+            # a finished run: its chosen design and validated P*_s, as in convergence.png
+            best_obs, label = history[chosen - 1], "chosen design"
+            validated = ((summary.get("validation") or {}).get("p_success"))
         out["figure"] = str(plot_convergence(run_dir / PROGRESS_FIGURE, history, case, best_obs,
-                                             best_label="best feasible so far"))
+                                             validated, best_label=label))
     return out
 
 
