@@ -343,17 +343,20 @@ class ConstrainedBayesOpt:
         value, which pools the evidence of neighbouring evaluations. Either way the
         winner should be validated with a larger fresh sample (SPEC: 1000 samples).
         """
+        ranked = self.ranked_feasible(min_probability)
+        return ranked[0] if ranked else None
+
+    def ranked_feasible(self, min_probability: float | None = None) -> list[Observation]:
+        """The designs :meth:`best_feasible` chooses from, best first: observed feasible
+        (and with ``min_probability``, at least that posterior probability of
+        feasibility), ordered by observed objective, earlier evaluations first on ties."""
         cand = [i for i, o in enumerate(self.history) if o.feasible]
-        if not cand:
-            return None
-        if min_probability is not None and self.constraints:
+        if cand and min_probability is not None and self.constraints:
             _, _, _, cons = self._fit_models(self._active_indices(), objective=False)
             U = self.to_unit(np.array([self.history[i].x for i in cand]))
             pf = np.exp(log_probability_feasible(cons, self.constraints, U))
             cand = [i for i, p in zip(cand, pf) if p >= min_probability]
-            if not cand:
-                return None
-        return min((self.history[i] for i in cand), key=lambda o: o.objective)
+        return sorted((self.history[i] for i in cand), key=lambda o: o.objective)
 
     # ------------------------------------------------------------------ state
     def _settings(self) -> dict:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .cases import P_SUCCESS
 from .report import plot_convergence, write_results
-from .selection import select_best
+from .selection import rank_candidates
 
 __all__ = ["finish_run", "sampling_counts"]
 
@@ -12,12 +12,18 @@ __all__ = ["finish_run", "sampling_counts"]
 def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
                compare_reference) -> dict:
     """The run's summary (see :func:`optimizer.run.run_optimization`); writes
-    results.csv / results.md and convergence.png."""
-    best, rule = select_best(opt, min_probability)
+    results.csv / results.md and convergence.png.  The ranked designs
+    (:func:`optimizer.selection.rank_candidates`) are validated in turn until one meets
+    C_P, at most ``settings["validation_candidates"]`` (default 1) of them; the first that
+    meets it is the run's result, else the first ranked.  Every validated design is a row
+    of the table."""
+    ranked, rule = rank_candidates(opt, min_probability)
+    best = ranked[0] if ranked else None
     feasible = [o for o in opt.history if o.feasible]
     validation = None
     rows = []
     val_n = settings["validation_samples"]
+    n_candidates = max(1, int(settings.get("validation_candidates", 1)))
 
     def validate(x, label):
         def prog(done, total):
@@ -26,10 +32,26 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                                 results_path=paths["validation"], label=label, progress=prog)
 
     if best is not None:
-        vres = validate(best.x, "best") if (val_n and not stopped) else None
+        tried = []                                   # (observation, validation result)
+        if val_n and not stopped:
+            for k, cand in enumerate(ranked[:n_candidates]):
+                tried.append((cand, validate(cand.x, "best" if k == 0 else f"candidate {k + 1}")))
+                if tried[-1][1].p_success >= case.p_threshold:
+                    break
+            best, vres = next((t for t in tried if t[1].p_success >= case.p_threshold), tried[0])
+        else:
+            vres = None
+        if n_candidates > 1:
+            rule += (f"; validated in that order until one met C_P = {case.p_threshold:g} "
+                     f"({len(tried)} of at most {n_candidates} validated)")
         validation = _validation_dict(vres)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))
+        for cand, r in tried:
+            if cand is not best:
+                rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
+                                 "validation", problem.design_dict(cand.x), cand.info,
+                                 _validation_dict(r), evaluation=_index(opt.history, cand)))
     ref = problem.reference_design(case.reference) if case.reference else None
     if compare_reference and not stopped and ref is not None:
         emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
@@ -59,6 +81,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
         "published": ({"design": case.reference, **po} if case.reference and
                       (po := problem.published_outcome(case.reference)) else None),
         **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
+        "validation_candidates": n_candidates,
     }
     if best is not None:
         summary.update({

@@ -17,7 +17,7 @@ Resuming (``resume=True``) replays the checkpoint into the optimiser (no re-eval
 which then asks for exactly the design that was in flight; its samples already in
 ``samples.jsonl`` are reused, so a run killed at any moment loses at most the samples of
 the design in flight that had not finished.  The settings in ``run.json`` must match
-(``iterations`` and ``validation_samples`` may change).  Given the same settings a resumed
+(``iterations``, ``validation_samples`` and ``validation_candidates`` may change).  Given the same settings a resumed
 run reaches the same result as an uninterrupted one (same machine and library versions).
 
 Sampling: ``sequential=True`` (the default) stops a design's sampling as soon as its
@@ -65,7 +65,8 @@ RUN_FILES = {
     "results_md": "results.md", "convergence": "convergence.png", "summary": "summary.json",
 }
 #: settings that may differ between a run and its resumption
-_MUTABLE_SETTINGS = {"iterations", "validation_samples", "compare_reference"}
+_MUTABLE_SETTINGS = {"iterations", "validation_samples", "validation_candidates",
+                     "compare_reference"}
 #: the value of a setting that a run directory of an older version does not record
 _SETTING_DEFAULTS = {"sequential": False}
 
@@ -92,7 +93,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
                      seed_points: int = 50, samples: int = 100,
                      run_dir: str | os.PathLike | None = None, resume: bool = False,
                      validation_samples: int = 1000, *, seed: int = 0, sample_seed: int = 1,
-                     validation_seed: int = 0, sequential: bool = True,
+                     validation_seed: int = 0, validation_candidates: int = 1,
+                     sequential: bool = True,
                      min_probability: float | None = 0.5, compare_reference: bool = False,
                      progress: Callable[[dict], None] | None = None,
                      callback: Callable[[Observation, ConstrainedBayesOpt], Any] | None = None,
@@ -111,6 +113,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
             holds a checkpoint is an error.  Resuming a directory with no checkpoint starts
             a new run.
         validation_samples: fresh samples for the final design (0: no validation).
+        validation_candidates: validate the ranked designs in turn until one meets C_P,
+            at most this many (:func:`optimizer.finish.finish_run`; 1: the first only).
         seed, sample_seed, validation_seed: see the module docstring.
         sequential: stop sampling a design once its feasibility is decided (module
             docstring); False: every design gets all ``samples``.
@@ -140,6 +144,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     seed = _check_int("seed", seed, 0)
     sample_seed = _check_int("sample_seed", sample_seed, 0)
     validation_seed = _check_int("validation_seed", validation_seed, 0)
+    validation_candidates = _check_int("validation_candidates", validation_candidates, 1)
     if validation_samples and validation_seed == sample_seed:
         raise RunError(f"validation_seed {validation_seed} equals sample_seed: the validation "
                        "samples must be fresh (use another base seed)")
@@ -154,7 +159,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
         "format": RUN_FORMAT, "version": RUN_VERSION, "case": case.name,
         "iterations": iterations, "seed_points": seed_points, "samples": samples,
         "validation_samples": validation_samples, "seed": seed, "sample_seed": sample_seed,
-        "validation_seed": validation_seed, "sequential": bool(sequential),
+        "validation_seed": validation_seed, "validation_candidates": validation_candidates,
+        "sequential": bool(sequential),
         **problem.settings(), "optimizer_options": opt_options,
         "min_probability": min_probability, "compare_reference": bool(compare_reference),
     })))

@@ -5,36 +5,48 @@ Among the evaluated designs whose observed P*_s met C_P, keep those whose constr
 probability of at least ``min_probability`` (default 0.5) that the true P*_s >= C_P; take
 the lowest objective (earliest on ties).  If that filter leaves nothing, fall back to the
 plain observed-feasible rule and say so.  Either way the winner is then validated with
-fresh samples (SPEC: 1000) by :mod:`optimizer.run`; the validated P*_s and its interval are
-what the results table reports.
+fresh samples (SPEC: 1000) by :mod:`optimizer.finish`; the validated P*_s and its interval
+are what the results table reports.  A design chosen from 100-sample estimates at the
+constraint's edge may fail that validation (the lightest of many designs near C_P is the
+luckiest); with ``validation_candidates`` K > 1 the run validates the ranked designs in
+turn until one meets C_P, at most K of them.
 """
 from __future__ import annotations
 
 from .bayesopt import ConstrainedBayesOpt
 from .observation import Observation
 
-__all__ = ["select_best"]
+__all__ = ["rank_candidates", "select_best"]
 
 
-def select_best(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5
-                ) -> tuple[Observation | None, str]:
-    """The design to validate and the rule that chose it (see the module docstring).
-
-    Returns ``(observation, rule)``; ``(None, "no evaluated design met the constraints")``
-    when no evaluation was observed feasible.
-    """
-    plain = opt.best_feasible()
-    if plain is None:
-        return None, "no evaluated design met the constraints"
+def rank_candidates(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5
+                    ) -> tuple[list[Observation], str]:
+    """The designs to validate, best first, and the rule that ranked them (see the module
+    docstring); ``([], "no evaluated design met the constraints")`` when no evaluation was
+    observed feasible."""
+    plain = opt.ranked_feasible()
+    if not plain:
+        return [], "no evaluated design met the constraints"
     if min_probability is None or len(opt.history) < 2:
         return plain, "lowest objective among observed-feasible designs"
     try:
-        pooled = opt.best_feasible(min_probability=min_probability)
+        pooled = opt.ranked_feasible(min_probability=min_probability)
     except Exception:  # noqa: BLE001 - a GP fit failure must not lose the run's result
         return plain, ("lowest objective among observed-feasible designs "
                        "(constraint GP could not be fitted)")
-    if pooled is None:
+    if not pooled:
         return plain, (f"lowest objective among observed-feasible designs (none had a "
                        f"posterior probability of feasibility >= {min_probability:g})")
     return pooled, (f"lowest objective among designs with observed P*_s >= threshold and "
                     f"posterior probability of feasibility >= {min_probability:g}")
+
+
+def select_best(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5
+                ) -> tuple[Observation | None, str]:
+    """The design to validate first and the rule that chose it (:func:`rank_candidates`).
+
+    Returns ``(observation, rule)``; ``(None, "no evaluated design met the constraints")``
+    when no evaluation was observed feasible.
+    """
+    ranked, rule = rank_candidates(opt, min_probability)
+    return (ranked[0] if ranked else None), rule

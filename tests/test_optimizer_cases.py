@@ -187,6 +187,43 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequentia
     assert more["evaluations"] == 14 and 0 < len(be.tasks) <= 40  # (+ validation if the best moved)
 
 
+def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
+    """With 3 samples per design the lightest designs observed feasible are truly
+    unreliable: the first ranked fails a 200-sample validation, and with K = 6 the run
+    validates the next ones in order of m_a until one meets C_P (here the fifth).
+    Resuming the K = 1 run with K = 6 reuses its validation and gives the same result."""
+    kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
+              optimizer_options=FAST)
+    one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
+    assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
+    be = SyntheticBackend()
+    six = optimize_design("mass", backend=be, run_dir=tmp_path / "six", validation_candidates=6,
+                          **kw)
+    rows = six["table"]
+    assert 2 <= len(rows) <= 6 and rows[0]["design"] == "best (Case 1)"
+    failed, chosen = rows[1:], rows[0]
+    assert all(r["validation"]["p_success"] < 0.98 for r in failed)
+    assert chosen["validation"]["p_success"] >= 0.98 or len(rows) == 6
+    # validated in order of the objective: every failed candidate is lighter than the chosen
+    assert [r["mass"] for r in failed] == sorted(r["mass"] for r in failed)
+    assert all(r["mass"] <= chosen["mass"] for r in failed)
+    assert failed[0]["evaluation"] == one["best_evaluation"]
+    assert six["best_evaluation"] == chosen["evaluation"] != one["best_evaluation"]
+    assert "validated in that order" in six["selection_rule"]
+    assert len(be.tasks) == six["episodes"] + 200 * len(rows)
+    md = (tmp_path / "six" / "results.md").read_text()
+    assert md.count("failed validation") == 2 * len(failed)   # results and variables tables
+    be = SyntheticBackend()
+    resumed = optimize_design("mass", backend=be, run_dir=tmp_path / "one", resume=True,
+                              validation_candidates=6, **kw)
+    assert resumed["best_evaluation"] == six["best_evaluation"]
+    assert resumed["validation"]["p_success"] == six["validation"]["p_success"]
+    assert len(be.tasks) == 200 * (len(rows) - 1)     # the first candidate's validation reused
+    with pytest.raises(RunError, match="validation_candidates"):
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "bad",
+                        validation_candidates=0, **kw)
+
+
 class KillAfter(EpisodeBackend):
     """Wraps a backend; raises KeyboardInterrupt (a kill) once ``n`` tasks have run."""
 

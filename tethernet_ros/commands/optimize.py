@@ -38,6 +38,10 @@ def add_arguments(p):
                    help="Monte Carlo samples per design during optimisation (default 100)")
     p.add_argument("--validation-samples", type=int, default=1000, metavar="V",
                    help="fresh samples to validate the best design with (default 1000; 0: none)")
+    p.add_argument("--validation-candidates", type=int, default=1, metavar="K",
+                   help="validate the ranked designs in turn until one meets P*_s >= 0.98, at "
+                        "most K of them (default 1: the chosen design only; may change on "
+                        "--resume, which then validates a finished run's further candidates)")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
@@ -89,7 +93,8 @@ def check_arguments(args) -> None:
                              ("--samples", args.samples, 1),
                              ("--validation-samples", args.validation_samples, 0),
                              ("--seed", args.seed, 0), ("--sample-seed", args.sample_seed, 0),
-                             ("--validation-seed", args.validation_seed, 0)):
+                             ("--validation-seed", args.validation_seed, 0),
+                             ("--validation-candidates", args.validation_candidates, 1)):
         if value < low:
             raise UserError(f"{flag} {value}: must be an integer >= {low}")
     check_backend_arguments(args)
@@ -240,6 +245,7 @@ def run(args) -> int:
             samples=args.samples, backend=backend, run_dir=run_dir, resume=args.resume,
             validation_samples=args.validation_samples, config=config, noise_model=model,
             seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
+            validation_candidates=args.validation_candidates,
             sequential=not args.full_sampling, compare_reference=args.compare_reference,
             progress=bar, optimizer_options=options)
     except (RunError, CheckpointError) as exc:
