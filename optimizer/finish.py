@@ -38,7 +38,8 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                 tried.append((cand, validate(cand.x, "best" if k == 0 else f"candidate {k + 1}")))
                 if tried[-1][1].p_success >= case.p_threshold:
                     break
-            best, vres = next((t for t in tried if t[1].p_success >= case.p_threshold), tried[0])
+            # the loop stopped at the first design that met C_P, if any: the last one tried
+            best, vres = tried[-1] if tried[-1][1].p_success >= case.p_threshold else tried[0]
         else:
             vres = None
         if n_candidates > 1:
