@@ -179,8 +179,8 @@ class ConstrainedBayesOpt:
             i -= 1
         return np.array(sorted(chosen))
 
-    def _fit_models(self, idx, objective: bool = True):
-        H = [self.history[i] for i in idx]
+    def _fit_models(self, idx, objective: bool = True, evidence=()):
+        H = [self.history[i] for i in idx] + list(evidence)
         U = self.to_unit(np.array([o.x for o in H]))
         rs = (self.seed * 7919 + len(self.history) * 31) % (2**31 - 1)
         obj = (GPModel(U, [o.objective for o in H], random_state=rs, n_restarts=self.n_restarts_gp)
@@ -346,13 +346,17 @@ class ConstrainedBayesOpt:
         ranked = self.ranked_feasible(min_probability)
         return ranked[0] if ranked else None
 
-    def ranked_feasible(self, min_probability: float | None = None) -> list[Observation]:
+    def ranked_feasible(self, min_probability: float | None = None,
+                        evidence: Sequence[Observation] = ()) -> list[Observation]:
         """The designs :meth:`best_feasible` chooses from, best first: observed feasible
         (and with ``min_probability``, at least that posterior probability of
-        feasibility), ordered by observed objective, earlier evaluations first on ties."""
+        feasibility), ordered by observed objective, earlier evaluations first on ties.
+        ``evidence``: further observations (e.g. validations of designs of the history)
+        that the constraint GPs are fitted to as well; they are never candidates."""
         cand = [i for i, o in enumerate(self.history) if o.feasible]
         if cand and min_probability is not None and self.constraints:
-            _, _, _, cons = self._fit_models(self._active_indices(), objective=False)
+            _, _, _, cons = self._fit_models(self._active_indices(), objective=False,
+                                             evidence=evidence)
             U = self.to_unit(np.array([self.history[i].x for i in cand]))
             pf = np.exp(log_probability_feasible(cons, self.constraints, U))
             cand = [i for i, p in zip(cand, pf) if p >= min_probability]

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .cases import P_SUCCESS
 from .report import plot_convergence, write_results
-from .selection import rank_candidates
+from .selection import rank_candidates, validation_evidence
 
 __all__ = ["finish_run", "sampling_counts"]
 
@@ -14,8 +14,10 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     """The run's summary (see :func:`optimizer.run.run_optimization`); writes
     results.csv / results.md and convergence.png.  The ranked designs
     (:func:`optimizer.selection.rank_candidates`) are validated in turn until one meets
-    C_P, at most ``settings["validation_candidates"]`` (default 1) of them; the first that
-    meets it is the run's result, else the first ranked.  Every validated design is a row
+    C_P, at most ``settings["validation_candidates"]`` (default 1) of them, ranked again
+    after each failure with the failed validations as evidence (module docstring of
+    :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
+    first validated.  Every validated design is a row
     of the table."""
     ranked, rule = rank_candidates(opt, min_probability)
     best = ranked[0] if ranked else None
@@ -34,17 +36,27 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     if best is not None:
         tried = []                                   # (observation, validation result)
         if val_n and not stopped:
-            for k, cand in enumerate(ranked[:n_candidates]):
-                tried.append((cand, validate(cand.x, "best" if k == 0 else f"candidate {k + 1}")))
-                if tried[-1][1].p_success >= case.p_threshold:
+            evidence = []                            # the failed validations, for the GP
+            order = ranked
+            while len(tried) < n_candidates:
+                cand = next((o for o in order if all(o is not t for t, _ in tried)), None)
+                if cand is None:
                     break
+                r = validate(cand.x, "best" if not tried else f"candidate {len(tried) + 1}")
+                tried.append((cand, r))
+                if r.p_success >= case.p_threshold:
+                    break
+                evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
+                if len(tried) < n_candidates:
+                    order, _ = rank_candidates(opt, min_probability, evidence)
             # the loop stopped at the first design that met C_P, if any: the last one tried
             best, vres = tried[-1] if tried[-1][1].p_success >= case.p_threshold else tried[0]
         else:
             vres = None
         if n_candidates > 1:
-            rule += (f"; validated in that order until one met C_P = {case.p_threshold:g} "
-                     f"({len(tried)} of at most {n_candidates} validated)")
+            rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}, the ranking "
+                     f"redone after each failure with its validation in the constraint GP's "
+                     f"data ({len(tried)} of at most {n_candidates} validated)")
         validation = _validation_dict(vres)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))

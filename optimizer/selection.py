@@ -8,29 +8,36 @@ plain observed-feasible rule and say so.  Either way the winner is then validate
 fresh samples (SPEC: 1000) by :mod:`optimizer.finish`; the validated P*_s and its interval
 are what the results table reports.  A design chosen from 100-sample estimates at the
 constraint's edge may fail that validation (the lightest of many designs near C_P is the
-luckiest); with ``validation_candidates`` K > 1 the run validates the ranked designs in
-turn until one meets C_P, at most K of them.
+luckiest); with ``validation_candidates`` K > 1 the run validates candidates in turn
+until one meets C_P, at most K of them.  Each failed validation is evidence about its
+neighbourhood too: it joins the constraint GP's data (:func:`validation_evidence`, P*_s
+over the validation's samples with their own binomial variance) and the designs are ranked
+again, so that near-copies of a design that failed (equally unreliable in truth) drop
+below the probability filter instead of being validated one after the other.
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from .bayesopt import ConstrainedBayesOpt
-from .observation import Observation
+from .observation import Observation, binomial_observation
 
-__all__ = ["rank_candidates", "select_best"]
+__all__ = ["rank_candidates", "select_best", "validation_evidence"]
 
 
-def rank_candidates(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5
-                    ) -> tuple[list[Observation], str]:
+def rank_candidates(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5,
+                    evidence: Sequence[Observation] = ()) -> tuple[list[Observation], str]:
     """The designs to validate, best first, and the rule that ranked them (see the module
     docstring); ``([], "no evaluated design met the constraints")`` when no evaluation was
-    observed feasible."""
+    observed feasible.  ``evidence``: failed validations (:func:`validation_evidence`)
+    that the constraint GP is fitted to besides the history."""
     plain = opt.ranked_feasible()
     if not plain:
         return [], "no evaluated design met the constraints"
     if min_probability is None or len(opt.history) < 2:
         return plain, "lowest objective among observed-feasible designs"
     try:
-        pooled = opt.ranked_feasible(min_probability=min_probability)
+        pooled = opt.ranked_feasible(min_probability=min_probability, evidence=evidence)
     except Exception:  # noqa: BLE001 - a GP fit failure must not lose the run's result
         return plain, ("lowest objective among observed-feasible designs "
                        "(constraint GP could not be fitted)")
@@ -50,3 +57,16 @@ def select_best(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5
     """
     ranked, rule = rank_candidates(opt, min_probability)
     return (ranked[0] if ranked else None), rule
+
+
+def validation_evidence(candidate: Observation, successes: int, samples: int,
+                        name: str) -> Observation:
+    """A validation of ``candidate`` (``successes`` of ``samples`` fresh episodes) as an
+    observation of constraint ``name`` for the constraint GP: P*_s = k / N with the
+    binomial variance of :func:`~optimizer.observation.binomial_observation`; never a
+    candidate itself (``feasible`` False)."""
+    p, var = binomial_observation(successes, samples)
+    return Observation(x=candidate.x, objective=candidate.objective, constraints={name: p},
+                       constraint_variances={name: var}, feasible=False,
+                       info={"validation_of": candidate.info.get("label", ""),
+                             "successes": successes, "samples": samples})

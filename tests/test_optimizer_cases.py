@@ -23,7 +23,7 @@ from optimizer.bayesopt import ConstrainedBayesOpt
 from optimizer.cases import CASE_MASS, CASE_TIME, get_case
 from optimizer.evaluator import DesignEvaluator
 from optimizer.run import RunError
-from optimizer.selection import select_best
+from optimizer.selection import rank_candidates, select_best, validation_evidence
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros import cli
 from tethernet_ros.core.config import SimConfig
@@ -133,6 +133,29 @@ def test_select_best_needs_pooled_evidence():
     assert select_best(empty) == (None, "no evaluated design met the constraints")
 
 
+def test_failed_validation_demotes_its_near_copies():
+    """Two near-copies observed feasible (99 of 100) rank first; once the lighter fails a
+    1000-sample validation (95 %), that evidence in the constraint GP drops the other below
+    the filter, and the next design to validate comes from the consistently feasible region
+    instead of the failed one's neighbour."""
+    opt = ConstrainedBayesOpt([(0.0, 1.0)], {"p_success": 0.98}, n_initial=1, seed=0,
+                              n_restarts_gp=0)
+    for x in np.linspace(0.0, 0.2, 5):                  # infeasible region
+        opt.tell([x], 1.0 + x, {"p_success": 0.9}, {"p_success": binomial_observation(90, 100)[1]})
+    for x in (0.400, 0.401):                            # the near-copies
+        opt.tell([x], 1.0 + x, {"p_success": 0.99}, {"p_success": binomial_observation(99, 100)[1]})
+    for x in np.linspace(0.7, 1.0, 7):                  # feasible region
+        opt.tell([x], 2.0 + x, {"p_success": 1.0}, {"p_success": binomial_observation(100, 100)[1]})
+    ranked, _ = rank_candidates(opt, 0.5)
+    assert [round(o.x[0], 3) for o in ranked[:3]] == [0.4, 0.401, 0.7]
+    failed = validation_evidence(ranked[0], 950, 1000, "p_success")
+    assert failed.constraints["p_success"] == 0.95 and not failed.feasible
+    again, rule = rank_candidates(opt, 0.5, [failed])
+    assert again[0].x[0] == pytest.approx(0.7) and "posterior" in rule
+    assert all(o.x[0] >= 0.7 for o in again)            # the near-copies are filtered out
+    assert len(opt.history) == 14                       # evidence is not added to the history
+
+
 # ----------------------------------------------------------------- runs, resume
 def _history(run_dir):
     return (Path(run_dir) / "history.csv").read_text().splitlines()
@@ -209,7 +232,7 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     assert all(r["mass"] <= chosen["mass"] for r in failed)
     assert failed[0]["evaluation"] == one["best_evaluation"]
     assert six["best_evaluation"] == chosen["evaluation"] != one["best_evaluation"]
-    assert "validated in that order" in six["selection_rule"]
+    assert "validated in turn" in six["selection_rule"]
     assert len(be.tasks) == six["episodes"] + 200 * len(rows)
     md = (tmp_path / "six" / "results.md").read_text()
     assert md.count("failed validation") == 2 * len(failed)   # results and variables tables
