@@ -6,7 +6,7 @@ from .cases import P_SUCCESS
 from .report import plot_convergence, write_results
 from .selection import rank_candidates, validation_evidence
 
-__all__ = ["finish_run", "sampling_counts"]
+__all__ = ["finish_run", "meets_requirement", "sampling_counts"]
 
 
 def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
@@ -44,27 +44,27 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                     break
                 r = validate(cand.x, "best" if not tried else f"candidate {len(tried) + 1}")
                 tried.append((cand, r))
-                if r.p_success >= case.p_threshold:
+                if meets_requirement(r, case):
                     break
                 evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
                 if len(tried) < n_candidates:
                     order, _ = rank_candidates(opt, min_probability, evidence)
             # the loop stopped at the first design that met C_P, if any: the last one tried
-            best, vres = tried[-1] if tried[-1][1].p_success >= case.p_threshold else tried[0]
+            best, vres = tried[-1] if meets_requirement(tried[-1][1], case) else tried[0]
         else:
             vres = None
         if n_candidates > 1:
             rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}, the ranking "
                      f"redone after each failure with its validation in the constraint GP's "
                      f"data ({len(tried)} of at most {n_candidates} validated)")
-        validation = _validation_dict(vres)
+        validation = _validation_dict(vres, case)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))
         for cand, r in tried:
             if cand is not best:
                 rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
                                  "validation", problem.design_dict(cand.x), cand.info,
-                                 _validation_dict(r), evaluation=_index(opt.history, cand)))
+                                 _validation_dict(r, case), evaluation=_index(opt.history, cand)))
     ref = problem.reference_design(case.reference) if case.reference else None
     if compare_reference and not stopped and ref is not None:
         emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
@@ -73,12 +73,13 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
         info = {"successes": r.successes, "samples": r.n_samples, "p_success": r.p_success,
                 "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
                 "mean_completion_time": r.mean_completion_time}
-        vref = _validation_dict(validate(ref, case.reference) if val_n else None)
+        vref = _validation_dict(validate(ref, case.reference) if val_n else None, case)
         rows.append(_row(f"reference {case.reference} (SPEC 8)", problem.design_dict(ref), info,
                          vref, evaluation=None))
 
     summary = {
         "case": case.name, "case_number": case.number, "problem": case.describe(),
+        "p_threshold": case.p_threshold,
         "status": "stopped" if stopped else "complete",
         "evaluations": len(opt.history), "seed_points": opt.n_initial,
         "iterations": opt.n_iterations, "samples": settings["samples"],
@@ -122,15 +123,22 @@ def sampling_counts(history, samples: int, sequential: bool) -> dict:
             "episodes_full": full, "episodes_saved": full - used}
 
 
+def meets_requirement(result, case) -> bool:
+    """Whether a validation ``result`` (its P*_s over the fresh samples) meets the case's
+    reliability requirement C_P: the one home of that rule."""
+    return result.p_success >= case.p_threshold
+
+
 def _index(history, obs) -> int:
     """1-based evaluation number of ``obs`` (by identity)."""
     return next(i for i, o in enumerate(history, 1) if o is obs)
 
 
-def _validation_dict(r) -> dict | None:
+def _validation_dict(r, case) -> dict | None:
     if r is None:
         return None
-    return {"samples": r.n_samples, "base_seed": r.base_seed, "successes": r.successes,
+    return {"meets_requirement": meets_requirement(r, case), "samples": r.n_samples,
+            "base_seed": r.base_seed, "successes": r.successes,
             "p_success": r.p_success, "wilson": [r.ci_low, r.ci_high],
             "clopper_pearson": [r.cp_low, r.cp_high],
             "mean_completion_time": r.mean_completion_time, "mass": r.mass,

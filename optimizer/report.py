@@ -135,9 +135,9 @@ def results_markdown(summary: dict) -> str:
         out.append(f"Best design = evaluation {rows[0]['evaluation']}.")
     v = rows[0]["validation"]
     if v and rows[0]["evaluation"]:
-        meets = v["p_success"] >= 0.98
         out.append(f"Validated with {v['samples']} fresh samples (base seed {v['base_seed']}): "
-                   f"P*_s {'meets' if meets else 'does NOT meet'} the 0.98 requirement.")
+                   f"P*_s {'meets' if v['meets_requirement'] else 'does NOT meet'} the "
+                   f"requirement C_P = {summary['p_threshold']:g}.")
     out.append("mean T is over all samples (closing never triggered: T = horizon).")
     return "\n".join(out) + "\n"
 

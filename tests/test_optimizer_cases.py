@@ -219,6 +219,8 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
               optimizer_options=FAST)
     one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
+    assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
+    assert "does NOT meet the requirement C_P = 0.98" in (tmp_path / "one" / "results.md").read_text()
     be = SyntheticBackend()
     six = optimize_design("mass", backend=be, run_dir=tmp_path / "six", validation_candidates=6,
                           **kw)
@@ -227,6 +229,8 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     failed, chosen = rows[1:], rows[0]
     assert all(r["validation"]["p_success"] < 0.98 for r in failed)
     assert chosen["validation"]["p_success"] >= 0.98 or len(rows) == 6
+    assert chosen["validation"]["meets_requirement"] == (chosen["validation"]["p_success"] >= 0.98)
+    assert not any(r["validation"]["meets_requirement"] for r in failed)
     # validated in order of the objective: every failed candidate is lighter than the chosen
     assert [r["mass"] for r in failed] == sorted(r["mass"] for r in failed)
     assert all(r["mass"] <= chosen["mass"] for r in failed)

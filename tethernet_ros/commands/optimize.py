@@ -40,8 +40,10 @@ def add_arguments(p):
                    help="fresh samples to validate the best design with (default 1000; 0: none)")
     p.add_argument("--validation-candidates", type=int, default=1, metavar="K",
                    help="validate the ranked designs in turn until one meets P*_s >= 0.98, at "
-                        "most K of them (default 1: the chosen design only; may change on "
-                        "--resume, which then validates a finished run's further candidates)")
+                        "most K of them, ranking again after each failure with its validation "
+                        "in the constraint GP's data (default 1: the chosen design only; may "
+                        "change on --resume, which then validates a finished run's further "
+                        "candidates)")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
