@@ -1,6 +1,7 @@
 """The numba kernel: named state (``state``), one phase per module (threads, contact,
-drawstring, tether, rigid target) and the step methods that compose them (``explicit``,
-``implicit``).
+drawstring, tether, rigid target), the implicit method's constraint rows (``rows``,
+``thread_rows``, ``contact_rows``, ``lock_rows``) and the step methods that compose them
+(``explicit``, ``implicit``).
 
 Units: SI throughout (m, s, kg, N).
 """
