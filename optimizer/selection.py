@@ -12,8 +12,12 @@ luckiest); with ``validation_candidates`` K > 1 the run validates candidates in 
 until one meets C_P, at most K of them.  Each failed validation is evidence about its
 neighbourhood too: it joins the constraint GP's data (:func:`validation_evidence`, P*_s
 over the validation's samples with their own binomial variance) and the designs are ranked
-again, so that near-copies of a design that failed (equally unreliable in truth) drop
-below the probability filter instead of being validated one after the other.
+again, so that neighbours of a design that failed lose posterior probability of
+feasibility and may drop below the filter.  Its limit: the GP takes the optimisation
+estimates of near-copies as independent, although they rest on the same common random
+numbers and share their luck, so a cluster of near-copies observed feasible can outweigh
+one validation (Case 1 at full budget: two of five near-copies dropped after the first
+failure, docs/cases/README.md).
 """
 from __future__ import annotations
 
