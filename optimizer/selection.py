@@ -16,8 +16,9 @@ again, so that neighbours of a design that failed lose posterior probability of
 feasibility and may drop below the filter.  Its limit: the GP takes the optimisation
 estimates of near-copies as independent, although they rest on the same common random
 numbers and share their luck, so a cluster of near-copies observed feasible can outweigh
-the validations (Case 1 at full budget: three failed validations dropped two untried
-near-copies from the ranking and left four, docs/cases/README.md).
+the validations (Case 1 at full budget: after the first and second failures the next
+near-copy still passed the filter and failed in turn; two others dropped out;
+docs/cases/README.md).
 """
 from __future__ import annotations
 
