@@ -26,6 +26,7 @@ from optimizer.run import RunError
 from optimizer.selection import rank_candidates, select_best, validation_evidence
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros import cli
+from tethernet_ros.commands.optimize import next_step_hint
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import (DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
                                        system_mass)
@@ -221,6 +222,9 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
     assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
     assert "does NOT meet the requirement C_P = 0.98" in (tmp_path / "one" / "results.md").read_text()
+    assert next_step_hint(one) == ("no validated design met C_P = 0.98 (up to 1 validated); to "
+                                   "validate further ranked designs: --resume "
+                                   "--validation-candidates 6")
     be = SyntheticBackend()
     six = optimize_design("mass", backend=be, run_dir=tmp_path / "six", validation_candidates=6,
                           **kw)
@@ -231,6 +235,8 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     assert chosen["validation"]["p_success"] >= 0.98 or len(rows) == 6
     assert chosen["validation"]["meets_requirement"] == (chosen["validation"]["p_success"] >= 0.98)
     assert not any(r["validation"]["meets_requirement"] for r in failed)
+    assert next_step_hint(six) is None or len(rows) == 6
+    assert next_step_hint({"best_design": None}).startswith("no evaluated design met")
     # validated in order of the objective: every failed candidate is lighter than the chosen
     assert [r["mass"] for r in failed] == sorted(r["mass"] for r in failed)
     assert all(r["mass"] <= chosen["mass"] for r in failed)

@@ -275,7 +275,22 @@ def run(args) -> int:
     print(f"run directory {summary['run_dir']}: results {Path(files['results_md']).name}, "
           f"{Path(files['results_csv']).name}, convergence {Path(files['convergence']).name}, "
           f"history {Path(files['history']).name}")
-    if summary["best_design"] is None:
-        print("no evaluated design met the constraints; run more iterations (--resume "
-              "--iterations N) or relax the problem", file=sys.stderr)
+    hint = next_step_hint(summary)
+    if hint:
+        print(hint, file=sys.stderr)
     return 0
+
+
+def next_step_hint(summary: dict) -> str | None:
+    """What to do next when a finished run has no design that met its requirements (None
+    when it has one): run further, or validate further ranked designs."""
+    if summary["best_design"] is None:
+        return ("no evaluated design met the constraints; run more iterations (--resume "
+                "--iterations N) or relax the problem")
+    v = summary["validation"]
+    if v and not v["meets_requirement"]:
+        k = summary["validation_candidates"]
+        return (f"no validated design met C_P = {summary['p_threshold']:g} (up to {k} "
+                f"validated); to validate further ranked designs: --resume "
+                f"--validation-candidates {k + 5}")
+    return None
