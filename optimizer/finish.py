@@ -17,8 +17,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     C_P, at most ``settings["validation_candidates"]`` (default 1) of them, ranked again
     after each failure with the failed validations as evidence (module docstring of
     :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
-    first validated.  Every validated design is a row
-    of the table."""
+    first validated.  Every validated design is a row of the table."""
     ranked, rule = rank_candidates(opt, min_probability)
     best = ranked[0] if ranked else None
     feasible = [o for o in opt.history if o.feasible]

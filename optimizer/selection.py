@@ -73,5 +73,4 @@ def validation_evidence(candidate: Observation, successes: int, samples: int,
     p, var = binomial_observation(successes, samples)
     return Observation(x=candidate.x, objective=candidate.objective, constraints={name: p},
                        constraint_variances={name: var}, feasible=False,
-                       info={"validation_of": candidate.info.get("label", ""),
-                             "successes": successes, "samples": samples})
+                       info={"successes": successes, "samples": samples})
