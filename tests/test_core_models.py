@@ -11,7 +11,8 @@ from tethernet_ros.core import materials
 from tethernet_ros.core.config import ConfigError, SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.episode import CaptureSimulation
-from tethernet_ros.core.scenario import corner_nodes, scenario_for
+from tethernet_ros.core.layout import corner_nodes
+from tethernet_ros.core.scenario import scenario_for
 
 from physics_systems import particle_system
 
@@ -164,3 +165,21 @@ def test_presets_and_choices_are_validated():
     with pytest.raises(ConfigError, match="'preset'"):
         SimConfig.from_dict({"preset": "nope"})
     assert SimConfig.from_dict({"preset": "reference", "friction": 0.3}).friction == 0.3
+
+
+@pytest.mark.parametrize("corners", ["net", "corner_mass"])
+def test_lumped_masses_add_up_to_the_system_mass(corners):
+    """The lumped bodies of the net (nodes and corner masses) carry m_a (38 L_n of thread
+    plus 4 m_c) and the four corner threads, wherever the drawstring's corners are; the
+    body layout puts the corner masses right after the n^2 nodes."""
+    from tethernet_ros.core.layout import BodyLayout
+
+    cfg = SimConfig(drawstring_corners=corners)
+    lay = BodyLayout.of(cfg)
+    assert (lay.n_net, lay.corner0, lay.tether0, lay.chaser, lay.n_bodies) == (289, 289, 293, 302, 303)
+    for d in REFERENCE_DESIGNS.values():
+        m = scenario_for(d, None, cfg).bodies.mass
+        lin = cfg.density * math.pi * d.r_n ** 2
+        corner_threads = 4 * cfg.corner_thread_meshes * d.L_n / 16 * lin
+        assert m[:lay.tether0].sum() == pytest.approx(d.mass(cfg.density) + corner_threads, rel=1e-12)
+        assert m[lay.chaser] == cfg.chaser_mass

@@ -30,7 +30,8 @@ from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.episode import run_episode  # noqa: E402
 from tethernet_ros.core.metrics import capture_quality_index  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
-from tethernet_ros.core.scenario import (actions_for, grid_thread_pairs, scenario_for,  # noqa: E402
+from tethernet_ros.core.layout import grid_thread_pairs  # noqa: E402
+from tethernet_ros.core.scenario import (actions_for, scenario_for,  # noqa: E402
                                          world_for)
 from tethernet_ros.ros.names import TOPICS  # noqa: E402
 from tethernet_ros.ros.parameters import DEFAULTS  # noqa: E402

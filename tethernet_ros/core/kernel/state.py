@@ -4,7 +4,7 @@ scalars) instead of dozens of positional arrays.
 Arrays inside the tuples are mutated in place by the kernels; the tuples themselves are
 immutable (swap a whole field with ``_replace`` outside the kernel).  Units: SI.
 
-Body layout (indices into every per-body array, set by ``scenario.build_scenario``):
+Body layout (indices into every per-body array, ``layout.BodyLayout``):
   [0, n^2)      net nodes of the n x n grid, node (i, j) = n i + j
   then          the four corner masses, the main tether's lumped masses, the chaser
 """
