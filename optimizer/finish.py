@@ -6,7 +6,11 @@ from .cases import P_SUCCESS
 from .report import plot_convergence, write_results
 from .selection import rank_candidates, validation_evidence
 
-__all__ = ["finish_run", "meets_requirement", "sampling_counts"]
+__all__ = ["finish_run", "meets_requirement", "sampling_counts", "VALIDATION_RULES"]
+
+#: How a validation meets the requirement C_P: by its estimate P*_s over the fresh samples
+#: (the source's test) or by the lower end of its Wilson 95 % interval.
+VALIDATION_RULES = ("estimate", "wilson")
 
 
 def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
@@ -17,7 +21,8 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     C_P, at most ``settings["validation_candidates"]`` (default 1) of them, ranked again
     after each failure with the failed validations as evidence (module docstring of
     :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
-    first validated.  Every validated design is a row of the table."""
+    first validated.  Every validated design is a row of the table.  ``settings
+    ["validation_rule"]`` says how a validation meets C_P (:func:`meets_requirement`)."""
     ranked, rule = rank_candidates(opt, min_probability)
     best = ranked[0] if ranked else None
     feasible = [o for o in opt.history if o.feasible]
@@ -25,6 +30,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     rows = []
     val_n = settings["validation_samples"]
     n_candidates = max(1, int(settings.get("validation_candidates", 1)))
+    v_rule = settings.get("validation_rule", "estimate")
 
     def validate(x, label):
         def prog(done, total):
@@ -43,27 +49,30 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                     break
                 r = validate(cand.x, "best" if not tried else f"candidate {len(tried) + 1}")
                 tried.append((cand, r))
-                if meets_requirement(r, case):
+                if meets_requirement(r, case, v_rule):
                     break
                 evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
                 if len(tried) < n_candidates:
                     order, _ = rank_candidates(opt, min_probability, evidence)
             # the loop stopped at the first design that met C_P, if any: the last one tried
-            best, vres = tried[-1] if meets_requirement(tried[-1][1], case) else tried[0]
+            best, vres = (tried[-1] if meets_requirement(tried[-1][1], case, v_rule)
+                          else tried[0])
         else:
             vres = None
         if n_candidates > 1:
-            rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}, the ranking "
+            rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}"
+                     f"{_RULE_TEXT[v_rule]}, the ranking "
                      f"redone after each failure with its validation in the constraint GP's "
                      f"data ({len(tried)} of at most {n_candidates} validated)")
-        validation = _validation_dict(vres, case)
+        validation = _validation_dict(vres, case, v_rule)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))
         for cand, r in tried:
             if cand is not best:
                 rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
                                  "validation", problem.design_dict(cand.x), cand.info,
-                                 _validation_dict(r, case), evaluation=_index(opt.history, cand)))
+                                 _validation_dict(r, case, v_rule),
+                                 evaluation=_index(opt.history, cand)))
     ref = problem.reference_design(case.reference) if case.reference else None
     if compare_reference and not stopped and ref is not None:
         emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
@@ -72,7 +81,8 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
         info = {"successes": r.successes, "samples": r.n_samples, "p_success": r.p_success,
                 "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
                 "mean_completion_time": r.mean_completion_time}
-        vref = _validation_dict(validate(ref, case.reference) if val_n else None, case)
+        vref = _validation_dict(validate(ref, case.reference) if val_n else None, case,
+                                v_rule)
         rows.append(_row(f"reference {case.reference} (SPEC 8)", problem.design_dict(ref), info,
                          vref, evaluation=None))
 
@@ -94,7 +104,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
         "published": ({"design": case.reference, **po} if case.reference and
                       (po := problem.published_outcome(case.reference)) else None),
         **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
-        "validation_candidates": n_candidates,
+        "validation_candidates": n_candidates, "validation_rule": v_rule,
     }
     if best is not None:
         summary.update({
@@ -122,10 +132,18 @@ def sampling_counts(history, samples: int, sequential: bool) -> dict:
             "episodes_full": full, "episodes_saved": full - used}
 
 
-def meets_requirement(result, case) -> bool:
-    """Whether a validation ``result`` (its P*_s over the fresh samples) meets the case's
-    reliability requirement C_P: the one home of that rule."""
-    return result.p_success >= case.p_threshold
+def meets_requirement(result, case, rule: str = "estimate") -> bool:
+    """Whether a validation ``result`` meets the case's reliability requirement C_P: its
+    P*_s over the fresh samples ("estimate", the source's test) or the lower end of its
+    Wilson 95 % interval ("wilson") at least C_P.  The one home of that rule."""
+    if rule not in VALIDATION_RULES:
+        raise ValueError(f"validation rule {rule!r}: must be one of {', '.join(VALIDATION_RULES)}")
+    value = result.ci_low if rule == "wilson" else result.p_success
+    return value >= case.p_threshold
+
+
+#: the rule in the sentence of the selection rule
+_RULE_TEXT = {"estimate": "", "wilson": " by the lower end of its Wilson 95 % interval"}
 
 
 def _index(history, obs) -> int:
@@ -133,10 +151,10 @@ def _index(history, obs) -> int:
     return next(i for i, o in enumerate(history, 1) if o is obs)
 
 
-def _validation_dict(r, case) -> dict | None:
+def _validation_dict(r, case, rule: str) -> dict | None:
     if r is None:
         return None
-    return {"meets_requirement": meets_requirement(r, case), "samples": r.n_samples,
+    return {"meets_requirement": meets_requirement(r, case, rule), "samples": r.n_samples,
             "base_seed": r.base_seed, "successes": r.successes,
             "p_success": r.p_success, "wilson": [r.ci_low, r.ci_high],
             "clopper_pearson": [r.cp_low, r.cp_high],

@@ -137,7 +137,9 @@ def results_markdown(summary: dict) -> str:
     if v and rows[0]["evaluation"]:
         out.append(f"Validated with {v['samples']} fresh samples (base seed {v['base_seed']}): "
                    f"P*_s {'meets' if v['meets_requirement'] else 'does NOT meet'} the "
-                   f"requirement C_P = {summary['p_threshold']:g}.")
+                   f"requirement C_P = {summary['p_threshold']:g}"
+                   + (" by the lower end of its Wilson 95 % interval"
+                      if summary.get("validation_rule") == "wilson" else "") + ".")
     out.append("mean T is over all samples (closing never triggered: T = horizon).")
     return "\n".join(out) + "\n"
 

@@ -17,7 +17,8 @@ Resuming (``resume=True``) replays the checkpoint into the optimiser (no re-eval
 which then asks for exactly the design that was in flight; its samples already in
 ``samples.jsonl`` are reused, so a run killed at any moment loses at most the samples of
 the design in flight that had not finished.  The settings in ``run.json`` must match
-(``iterations``, ``validation_samples`` and ``validation_candidates`` may change).  Given the same settings a resumed
+(``iterations``, ``validation_samples``, ``validation_candidates`` and ``validation_rule``
+may change).  Given the same settings a resumed
 run reaches the same result as an uninterrupted one (same machine and library versions).
 
 Sampling: ``sequential=True`` (the default) stops a design's sampling as soon as its
@@ -48,7 +49,7 @@ from .bayesopt import ConstrainedBayesOpt
 from .cases import P_SUCCESS, Case, get_case
 from .checkpoint import CheckpointError, load_checkpoint
 from .evaluator import DesignEvaluator
-from .finish import finish_run
+from .finish import VALIDATION_RULES, finish_run
 from .jsonio import atomic_write_json, json_clean
 from .loop import minimize
 from .observation import Observation
@@ -66,9 +67,9 @@ RUN_FILES = {
 }
 #: settings that may differ between a run and its resumption
 _MUTABLE_SETTINGS = {"iterations", "validation_samples", "validation_candidates",
-                     "compare_reference"}
+                     "validation_rule", "compare_reference"}
 #: the value of a setting that a run directory of an older version does not record
-_SETTING_DEFAULTS = {"sequential": False}
+_SETTING_DEFAULTS = {"sequential": False, "validation_rule": "estimate"}
 
 
 class RunError(ValueError):
@@ -94,7 +95,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
                      run_dir: str | os.PathLike | None = None, resume: bool = False,
                      validation_samples: int = 1000, *, seed: int = 0, sample_seed: int = 1,
                      validation_seed: int = 0, validation_candidates: int = 1,
-                     sequential: bool = True,
+                     validation_rule: str = "estimate", sequential: bool = True,
                      min_probability: float | None = 0.5, compare_reference: bool = False,
                      progress: Callable[[dict], None] | None = None,
                      callback: Callable[[Observation, ConstrainedBayesOpt], Any] | None = None,
@@ -115,6 +116,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
         validation_samples: fresh samples for the final design (0: no validation).
         validation_candidates: validate the ranked designs in turn until one meets C_P,
             at most this many (:func:`optimizer.finish.finish_run`; 1: the first only).
+        validation_rule: how a validation meets C_P: "estimate" (its P*_s, the source's
+            test) or "wilson" (the lower end of its Wilson 95 % interval).
         seed, sample_seed, validation_seed: see the module docstring.
         sequential: stop sampling a design once its feasibility is decided (module
             docstring); False: every design gets all ``samples``.
@@ -145,6 +148,9 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     sample_seed = _check_int("sample_seed", sample_seed, 0)
     validation_seed = _check_int("validation_seed", validation_seed, 0)
     validation_candidates = _check_int("validation_candidates", validation_candidates, 1)
+    if validation_rule not in VALIDATION_RULES:
+        raise RunError(f"validation_rule: got {validation_rule!r}; must be one of "
+                       f"{', '.join(VALIDATION_RULES)}")
     if validation_samples and validation_seed == sample_seed:
         raise RunError(f"validation_seed {validation_seed} equals sample_seed: the validation "
                        "samples must be fresh (use another base seed)")
@@ -160,7 +166,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
         "iterations": iterations, "seed_points": seed_points, "samples": samples,
         "validation_samples": validation_samples, "seed": seed, "sample_seed": sample_seed,
         "validation_seed": validation_seed, "validation_candidates": validation_candidates,
-        "sequential": bool(sequential),
+        "validation_rule": validation_rule, "sequential": bool(sequential),
         **problem.settings(), "optimizer_options": opt_options,
         "min_probability": min_probability, "compare_reference": bool(compare_reference),
     })))

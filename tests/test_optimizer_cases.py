@@ -257,6 +257,37 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
                         validation_candidates=0, **kw)
 
 
+def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_path):
+    """With the Wilson rule a validation meets C_P only if the lower end of its Wilson
+    95 % interval does: at 200 samples that takes 200/200 (199/200 gives 0.972).  Resuming
+    a run chosen by the estimate rule with the Wilson rule reuses every validation done,
+    rejects a chosen design whose interval reaches below C_P and validates further ones."""
+    kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
+              optimizer_options=FAST, validation_candidates=6)
+    est = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r", **kw)
+    assert est["validation_rule"] == "estimate"
+    be = SyntheticBackend()
+    wil = optimize_design("mass", backend=be, run_dir=tmp_path / "r", resume=True,
+                          **{**kw, "validation_candidates": 12, "validation_rule": "wilson"})
+    assert wil["validation_rule"] == "wilson" and "Wilson" in wil["selection_rule"]
+    rows = wil["table"]
+    for r in rows:
+        v = r["validation"]
+        assert v["meets_requirement"] == (v["wilson"][0] >= 0.98)
+    assert not any(r["validation"]["meets_requirement"] for r in rows[1:])
+    chosen = rows[0]["validation"]
+    assert chosen["meets_requirement"] or len(rows) == 12
+    # the estimate run's validations were reused; only the further candidates were drawn
+    assert len(be.tasks) == 200 * (len(rows) - len(est["table"]))
+    if est["validation"]["wilson"][0] < 0.98:
+        assert wil["best_evaluation"] != est["best_evaluation"]
+    text = (tmp_path / "r" / "results.md").read_text()
+    assert "by the lower end of its Wilson 95 % interval" in text
+    with pytest.raises(RunError, match="validation_rule"):
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "bad",
+                        validation_rule="lower", **kw)
+
+
 class KillAfter(EpisodeBackend):
     """Wraps a backend; raises KeyboardInterrupt (a kill) once ``n`` tasks have run."""
 

@@ -44,6 +44,10 @@ def add_arguments(p):
                         "in the constraint GP's data (default 1: the chosen design only; may "
                         "change on --resume, which then validates a finished run's further "
                         "candidates)")
+    p.add_argument("--validation-rule", choices=("estimate", "wilson"), default="estimate",
+                   help="how a validation meets P*_s >= 0.98: by its estimate (default, the "
+                        "source's test) or by the lower end of its Wilson 95 %% interval (may "
+                        "change on --resume)")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
@@ -248,7 +252,8 @@ def run(args) -> int:
             validation_samples=args.validation_samples, config=config, noise_model=model,
             seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
             validation_candidates=args.validation_candidates,
-            sequential=not args.full_sampling, compare_reference=args.compare_reference,
+            validation_rule=args.validation_rule, sequential=not args.full_sampling,
+            compare_reference=args.compare_reference,
             progress=bar, optimizer_options=options)
     except (RunError, CheckpointError) as exc:
         raise UserError(str(exc)) from None
