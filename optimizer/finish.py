@@ -39,31 +39,19 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                                 results_path=paths["validation"], label=label, progress=prog)
 
     if best is not None:
-        tried = []                                   # (observation, validation result)
+        tried = []
+        vres = None
         if val_n and not stopped:
-            evidence = []                            # the failed validations, for the GP
-            order = ranked
-            while len(tried) < n_candidates:
-                cand = next((o for o in order if all(o is not t for t, _ in tried)), None)
-                if cand is None:
-                    break
-                r = validate(cand.x, "best" if not tried else f"candidate {len(tried) + 1}")
-                tried.append((cand, r))
-                if meets_requirement(r, case, v_rule):
-                    break
-                evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
-                if len(tried) < n_candidates:
-                    order, _ = rank_candidates(opt, min_probability, evidence)
-            # the loop stopped at the first design that met C_P, if any: the last one tried
+            tried = _validate_in_turn(opt, ranked, min_probability, validate, case,
+                                      n_candidates, v_rule)
+            # the first design that met C_P, if any (the last one tried), else the first
             best, vres = (tried[-1] if meets_requirement(tried[-1][1], case, v_rule)
                           else tried[0])
-        else:
-            vres = None
         if n_candidates > 1:
             rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}"
-                     f"{_RULE_TEXT[v_rule]}, the ranking "
-                     f"redone after each failure with its validation in the constraint GP's "
-                     f"data ({len(tried)} of at most {n_candidates} validated)")
+                     f"{_RULE_TEXT[v_rule]}, the ranking redone after each failure with its "
+                     f"validation in the constraint GP's data ({len(tried)} of at most "
+                     f"{n_candidates} validated)")
         validation = _validation_dict(vres, case, v_rule)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))
@@ -119,6 +107,29 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     plot_convergence(paths["convergence"], opt.history, case, best,
                      validation["p_success"] if validation else None)
     return summary
+
+
+def _validate_in_turn(opt, ranked, min_probability, validate, case, n_candidates: int,
+                      rule: str) -> list:
+    """Validate the ranked designs in turn until one meets C_P (by ``rule``), at most
+    ``n_candidates``; after each failure its validation joins the constraint GP's data and
+    the designs are ranked again.  Returns the (observation, validation result) pairs in
+    the order validated."""
+    tried = []
+    evidence = []                            # the failed validations, for the GP
+    order = ranked
+    while len(tried) < n_candidates:
+        cand = next((o for o in order if all(o is not t for t, _ in tried)), None)
+        if cand is None:
+            break
+        r = validate(cand.x, "best" if not tried else f"candidate {len(tried) + 1}")
+        tried.append((cand, r))
+        if meets_requirement(r, case, rule):
+            break
+        evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
+        if len(tried) < n_candidates:
+            order, _ = rank_candidates(opt, min_probability, evidence)
+    return tried
 
 
 def sampling_counts(history, samples: int, sequential: bool) -> dict:

@@ -140,48 +140,21 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     """
     t_start = time.perf_counter()
     case = get_case(case)
-    iterations = _check_int("iterations", iterations, 0)
-    seed_points = _check_int("seed_points", seed_points, 1)
-    samples = _check_int("samples", samples, 1)
-    validation_samples = _check_int("validation_samples", validation_samples, 0)
-    seed = _check_int("seed", seed, 0)
-    sample_seed = _check_int("sample_seed", sample_seed, 0)
-    validation_seed = _check_int("validation_seed", validation_seed, 0)
-    validation_candidates = _check_int("validation_candidates", validation_candidates, 1)
-    if validation_rule not in VALIDATION_RULES:
-        raise RunError(f"validation_rule: got {validation_rule!r}; must be one of "
-                       f"{', '.join(VALIDATION_RULES)}")
-    if validation_samples and validation_seed == sample_seed:
-        raise RunError(f"validation_seed {validation_seed} equals sample_seed: the validation "
-                       "samples must be fresh (use another base seed)")
+    settings = _run_settings(case, problem, iterations=iterations, seed_points=seed_points,
+                             samples=samples, validation_samples=validation_samples, seed=seed,
+                             sample_seed=sample_seed, validation_seed=validation_seed,
+                             validation_candidates=validation_candidates,
+                             validation_rule=validation_rule, sequential=sequential,
+                             optimizer_options=optimizer_options,
+                             min_probability=min_probability,
+                             compare_reference=compare_reference)
+    iterations, seed_points, samples = (settings[k] for k in ("iterations", "seed_points",
+                                                              "samples"))
+    validation_samples = settings["validation_samples"]
     opt_options = dict(optimizer_options or {})
-    bad = set(opt_options) & {"n_initial", "n_iterations", "seed", "cheap_constraint"}
-    if bad:
-        raise RunError(f"optimizer_options may not set {sorted(bad)} (use the arguments)")
     run_dir = Path(run_dir) if run_dir is not None else default_run_dir(case)
     paths = {k: run_dir / v for k, v in RUN_FILES.items()}
-
-    settings = json.loads(json.dumps(json_clean({
-        "format": RUN_FORMAT, "version": RUN_VERSION, "case": case.name,
-        "iterations": iterations, "seed_points": seed_points, "samples": samples,
-        "validation_samples": validation_samples, "seed": seed, "sample_seed": sample_seed,
-        "validation_seed": validation_seed, "validation_candidates": validation_candidates,
-        "validation_rule": validation_rule, "sequential": bool(sequential),
-        **problem.settings(), "optimizer_options": opt_options,
-        "min_probability": min_probability, "compare_reference": bool(compare_reference),
-    })))
-    previous = 0
-    if resume and not paths["checkpoint"].exists() and not paths["settings"].exists():
-        raise RunError(f"cannot resume: {str(run_dir)!r} holds no run ({RUN_FILES['settings']} "
-                       "missing); start it without --resume")
-    if paths["checkpoint"].exists():
-        if not resume:
-            raise RunError(f"run directory {str(run_dir)!r} already holds a run "
-                           f"({RUN_FILES['checkpoint']}); resume it or choose another run "
-                           "directory")
-        previous = _check_resume(paths, settings)
-    run_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_json(paths["settings"], settings)
+    previous = _open_run_dir(run_dir, paths, settings, resume)
     total = seed_points + iterations
 
     def emit(event: dict) -> None:
@@ -194,7 +167,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
         emit({"stage": "sample", "evaluation": state["evaluation"], "total": total,
               "done": done, "samples": n})
 
-    evaluator = DesignEvaluator(case, problem, samples, sample_seed,
+    evaluator = DesignEvaluator(case, problem, samples, settings["sample_seed"],
                                 results_path=paths["samples"], progress=sample_progress,
                                 sequential=sequential)
     emit({"stage": "start", "case": case.name, "done": previous, "total": total,
@@ -224,7 +197,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     res = minimize(evaluator, problem.bounds, case.constraints,
                    cheap_constraint=evaluator.cheap_constraint, n_initial=seed_points,
                    n_iterations=iterations, checkpoint_path=paths["checkpoint"],
-                   resume=resume, callback=on_evaluation, seed=seed, **opt_options)
+                   resume=resume, callback=on_evaluation, seed=settings["seed"], **opt_options)
     opt = res.optimizer
     write_history(paths["history"], opt.history, problem.variable_names)
     summary = finish_run(case, opt, res.stopped_by_callback, paths, settings, problem,
@@ -235,6 +208,59 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     atomic_write_json(paths["summary"], summary)
     emit({"stage": "done", **summary})
     return json_clean(summary)
+
+
+def _run_settings(case: Case, problem: DesignProblem, *, iterations, seed_points, samples,
+                  validation_samples, seed, sample_seed, validation_seed,
+                  validation_candidates, validation_rule, sequential, optimizer_options,
+                  min_probability, compare_reference) -> dict:
+    """The run's settings (run.json) from the arguments of :func:`run_optimization`,
+    checked: RunError naming the first bad one."""
+    ints = {"iterations": (iterations, 0), "seed_points": (seed_points, 1),
+            "samples": (samples, 1), "validation_samples": (validation_samples, 0),
+            "seed": (seed, 0), "sample_seed": (sample_seed, 0),
+            "validation_seed": (validation_seed, 0),
+            "validation_candidates": (validation_candidates, 1)}
+    checked = {name: _check_int(name, value, low) for name, (value, low) in ints.items()}
+    if validation_rule not in VALIDATION_RULES:
+        raise RunError(f"validation_rule: got {validation_rule!r}; must be one of "
+                       f"{', '.join(VALIDATION_RULES)}")
+    if checked["validation_samples"] and checked["validation_seed"] == checked["sample_seed"]:
+        raise RunError(f"validation_seed {validation_seed} equals sample_seed: the validation "
+                       "samples must be fresh (use another base seed)")
+    opt_options = dict(optimizer_options or {})
+    bad = set(opt_options) & {"n_initial", "n_iterations", "seed", "cheap_constraint"}
+    if bad:
+        raise RunError(f"optimizer_options may not set {sorted(bad)} (use the arguments)")
+    return json.loads(json.dumps(json_clean({
+        "format": RUN_FORMAT, "version": RUN_VERSION, "case": case.name,
+        "iterations": checked["iterations"], "seed_points": checked["seed_points"],
+        "samples": checked["samples"], "validation_samples": checked["validation_samples"],
+        "seed": checked["seed"], "sample_seed": checked["sample_seed"],
+        "validation_seed": checked["validation_seed"],
+        "validation_candidates": checked["validation_candidates"],
+        "validation_rule": validation_rule, "sequential": bool(sequential),
+        **problem.settings(), "optimizer_options": opt_options,
+        "min_probability": min_probability, "compare_reference": bool(compare_reference),
+    })))
+
+
+def _open_run_dir(run_dir: Path, paths: dict, settings: dict, resume: bool) -> int:
+    """Check the run directory against ``resume`` and its run.json against ``settings``,
+    then write them; returns the evaluations already done (0 for a new run)."""
+    previous = 0
+    if resume and not paths["checkpoint"].exists() and not paths["settings"].exists():
+        raise RunError(f"cannot resume: {str(run_dir)!r} holds no run ({RUN_FILES['settings']} "
+                       "missing); start it without --resume")
+    if paths["checkpoint"].exists():
+        if not resume:
+            raise RunError(f"run directory {str(run_dir)!r} already holds a run "
+                           f"({RUN_FILES['checkpoint']}); resume it or choose another run "
+                           "directory")
+        previous = _check_resume(paths, settings)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_json(paths["settings"], settings)
+    return previous
 
 
 def read_run_settings(path: str | os.PathLike) -> dict:
