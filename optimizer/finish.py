@@ -5,6 +5,7 @@ from __future__ import annotations
 from .cases import P_SUCCESS
 from .report import plot_convergence, write_results
 from .selection import rank_candidates, validation_evidence
+from .sequential import SequentialRule
 
 __all__ = ["finish_run", "meets_requirement", "sampling_counts", "VALIDATION_RULES"]
 
@@ -22,7 +23,10 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     after each failure with the failed validations as evidence (module docstring of
     :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
     first validated.  Every validated design is a row of the table.  ``settings
-    ["validation_rule"]`` says how a validation meets C_P (:func:`meets_requirement`)."""
+    ["validation_rule"]`` says how a validation meets C_P (:func:`meets_requirement`); with
+    ``settings["validation_stop"]`` a validation stops at the failure that decides it
+    misses C_P (:class:`optimizer.sequential.SequentialRule` at the validation's size), its
+    P*_s then over the samples drawn ("stopped" in its dict)."""
     ranked, rule = rank_candidates(opt, min_probability)
     best = ranked[0] if ranked else None
     feasible = [o for o in opt.history if o.feasible]
@@ -31,11 +35,15 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
     val_n = settings["validation_samples"]
     n_candidates = max(1, int(settings.get("validation_candidates", 1)))
     v_rule = settings.get("validation_rule", "estimate")
+    # with validation_stop, a validation ends at the failure that decides it misses C_P
+    # (by either rule: a design below C_P by its estimate is below it by its Wilson bound)
+    v_stop = (SequentialRule(val_n, case.p_threshold, stop_when_feasible=False)
+              if val_n and settings.get("validation_stop") else None)
 
     def validate(x, label):
         def prog(done, total):
             emit({"stage": "validation", "label": label, "done": done, "total": total})
-        return problem.evaluate(x, val_n, settings["validation_seed"],
+        return problem.evaluate(x, val_n, settings["validation_seed"], stop=v_stop,
                                 results_path=paths["validation"], label=label, progress=prog)
 
     if best is not None:
@@ -52,14 +60,14 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                      f"{_RULE_TEXT[v_rule]}, the ranking redone after each failure with its "
                      f"validation in the constraint GP's data ({len(tried)} of at most "
                      f"{n_candidates} validated)")
-        validation = _validation_dict(vres, case, v_rule)
+        validation = _validation_dict(vres, case, v_rule, val_n)
         rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
                          validation, evaluation=_index(opt.history, best)))
         for cand, r in tried:
             if cand is not best:
                 rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
                                  "validation", problem.design_dict(cand.x), cand.info,
-                                 _validation_dict(r, case, v_rule),
+                                 _validation_dict(r, case, v_rule, val_n),
                                  evaluation=_index(opt.history, cand)))
     ref = problem.reference_design(case.reference) if case.reference else None
     if compare_reference and not stopped and ref is not None:
@@ -70,7 +78,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                 "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
                 "mean_completion_time": r.mean_completion_time}
         vref = _validation_dict(validate(ref, case.reference) if val_n else None, case,
-                                v_rule)
+                                v_rule, val_n)
         rows.append(_row(f"reference {case.reference} (SPEC 8)", problem.design_dict(ref), info,
                          vref, evaluation=None))
 
@@ -93,6 +101,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                       (po := problem.published_outcome(case.reference)) else None),
         **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
         "validation_candidates": n_candidates, "validation_rule": v_rule,
+        "validation_samples": val_n, "validation_stop": bool(settings.get("validation_stop")),
     }
     if best is not None:
         summary.update({
@@ -162,10 +171,11 @@ def _index(history, obs) -> int:
     return next(i for i, o in enumerate(history, 1) if o is obs)
 
 
-def _validation_dict(r, case, rule: str) -> dict | None:
+def _validation_dict(r, case, rule: str, planned: int) -> dict | None:
     if r is None:
         return None
     return {"meets_requirement": meets_requirement(r, case, rule), "samples": r.n_samples,
+            "samples_planned": planned, "stopped": r.n_samples < planned,
             "base_seed": r.base_seed, "successes": r.successes,
             "p_success": r.p_success, "wilson": [r.ci_low, r.ci_high],
             "clopper_pearson": [r.cp_low, r.cp_high],

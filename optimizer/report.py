@@ -88,7 +88,8 @@ def write_results(csv_path: str | Path, md_path: str | Path, summary: dict) -> N
 def results_markdown(summary: dict) -> str:
     rows = summary["table"]
     n_opt = summary["samples"]
-    n_val = next((r["validation"]["samples"] for r in rows if r["validation"]), None)
+    n_val = summary.get("validation_samples") or next(
+        (r["validation"]["samples"] for r in rows if r["validation"]), None)
     out = [f"# Case {summary['case_number']} results", "",
            f"{summary['problem']}.", "",
            f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
@@ -109,6 +110,9 @@ def results_markdown(summary: dict) -> str:
             opt += f" (N={r['samples']})"
         if v:
             val = f"{_f(v['p_success'])} [{_f(v['wilson'][0])}, {_f(v['wilson'][1])}]"
+            if v.get("stopped"):
+                val += (f" (N={v['samples']}: stopped at the failure that decided it "
+                        f"misses C_P)")
             cp = f"[{_f(v['clopper_pearson'][0])}, {_f(v['clopper_pearson'][1])}]"
             vt = _f(v["mean_completion_time"], 2)
         else:

@@ -17,8 +17,7 @@ Resuming (``resume=True``) replays the checkpoint into the optimiser (no re-eval
 which then asks for exactly the design that was in flight; its samples already in
 ``samples.jsonl`` are reused, so a run killed at any moment loses at most the samples of
 the design in flight that had not finished.  The settings in ``run.json`` must match
-(``iterations``, ``validation_samples``, ``validation_candidates`` and ``validation_rule``
-may change).  Given the same settings a resumed
+(``iterations`` and the validation's settings may change).  Given the same settings a resumed
 run reaches the same result as an uninterrupted one (same machine and library versions).
 
 Sampling: ``sequential=True`` (the default) stops a design's sampling as soon as its
@@ -67,9 +66,10 @@ RUN_FILES = {
 }
 #: settings that may differ between a run and its resumption
 _MUTABLE_SETTINGS = {"iterations", "validation_samples", "validation_candidates",
-                     "validation_rule", "compare_reference"}
+                     "validation_rule", "validation_stop", "compare_reference"}
 #: the value of a setting that a run directory of an older version does not record
-_SETTING_DEFAULTS = {"sequential": False, "validation_rule": "estimate"}
+_SETTING_DEFAULTS = {"sequential": False, "validation_rule": "estimate",
+                     "validation_stop": False}
 
 
 class RunError(ValueError):
@@ -95,7 +95,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
                      run_dir: str | os.PathLike | None = None, resume: bool = False,
                      validation_samples: int = 1000, *, seed: int = 0, sample_seed: int = 1,
                      validation_seed: int = 0, validation_candidates: int = 1,
-                     validation_rule: str = "estimate", sequential: bool = True,
+                     validation_rule: str = "estimate", validation_stop: bool | None = None,
+                     sequential: bool = True,
                      min_probability: float | None = 0.5, compare_reference: bool = False,
                      progress: Callable[[dict], None] | None = None,
                      callback: Callable[[Observation, ConstrainedBayesOpt], Any] | None = None,
@@ -118,6 +119,9 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
             at most this many (:func:`optimizer.finish.finish_run`; 1: the first only).
         validation_rule: how a validation meets C_P: "estimate" (its P*_s, the source's
             test) or "wilson" (the lower end of its Wilson 95 % interval).
+        validation_stop: end a validation at the failure that decides it misses C_P
+            (:func:`optimizer.finish.finish_run`).  None: as the run being resumed
+            recorded it (off for runs that predate it), on for a new run.
         seed, sample_seed, validation_seed: see the module docstring.
         sequential: stop sampling a design once its feasibility is decided (module
             docstring); False: every design gets all ``samples``.
@@ -140,11 +144,18 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
     """
     t_start = time.perf_counter()
     case = get_case(case)
+    run_dir = Path(run_dir) if run_dir is not None else default_run_dir(case)
+    paths = {k: run_dir / v for k, v in RUN_FILES.items()}
+    if validation_stop is None:
+        validation_stop = (read_run_settings(paths["settings"]).get(
+            "validation_stop", _SETTING_DEFAULTS["validation_stop"])
+            if resume and paths["settings"].exists() else True)
     settings = _run_settings(case, problem, iterations=iterations, seed_points=seed_points,
                              samples=samples, validation_samples=validation_samples, seed=seed,
                              sample_seed=sample_seed, validation_seed=validation_seed,
                              validation_candidates=validation_candidates,
-                             validation_rule=validation_rule, sequential=sequential,
+                             validation_rule=validation_rule,
+                             validation_stop=bool(validation_stop), sequential=sequential,
                              optimizer_options=optimizer_options,
                              min_probability=min_probability,
                              compare_reference=compare_reference)
@@ -152,8 +163,6 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
                                                               "samples"))
     validation_samples = settings["validation_samples"]
     opt_options = dict(optimizer_options or {})
-    run_dir = Path(run_dir) if run_dir is not None else default_run_dir(case)
-    paths = {k: run_dir / v for k, v in RUN_FILES.items()}
     previous = _open_run_dir(run_dir, paths, settings, resume)
     total = seed_points + iterations
 
@@ -212,7 +221,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
 
 def _run_settings(case: Case, problem: DesignProblem, *, iterations, seed_points, samples,
                   validation_samples, seed, sample_seed, validation_seed,
-                  validation_candidates, validation_rule, sequential, optimizer_options,
+                  validation_candidates, validation_rule, validation_stop, sequential,
+                  optimizer_options,
                   min_probability, compare_reference) -> dict:
     """The run's settings (run.json) from the arguments of :func:`run_optimization`,
     checked: RunError naming the first bad one."""
@@ -239,8 +249,8 @@ def _run_settings(case: Case, problem: DesignProblem, *, iterations, seed_points
         "seed": checked["seed"], "sample_seed": checked["sample_seed"],
         "validation_seed": checked["validation_seed"],
         "validation_candidates": checked["validation_candidates"],
-        "validation_rule": validation_rule, "sequential": bool(sequential),
-        **problem.settings(), "optimizer_options": opt_options,
+        "validation_rule": validation_rule, "validation_stop": bool(validation_stop),
+        "sequential": bool(sequential), **problem.settings(), "optimizer_options": opt_options,
         "min_probability": min_probability, "compare_reference": bool(compare_reference),
     })))
 

@@ -217,7 +217,7 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     validates the next ones in order of m_a until one meets C_P (here the fifth).
     Resuming the K = 1 run with K = 6 reuses its validation and gives the same result."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST)
+              optimizer_options=FAST, validation_stop=False)
     one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
     assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
@@ -263,7 +263,7 @@ def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_p
     a run chosen by the estimate rule with the Wilson rule reuses every validation done,
     rejects a chosen design whose interval reaches below C_P and validates further ones."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_candidates=6)
+              optimizer_options=FAST, validation_candidates=6, validation_stop=False)
     est = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r", **kw)
     assert est["validation_rule"] == "estimate"
     be = SyntheticBackend()
@@ -286,6 +286,55 @@ def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_p
     with pytest.raises(RunError, match="validation_rule"):
         optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "bad",
                         validation_rule="lower", **kw)
+
+
+def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
+    """With validation_stop (the default for a new run) a validation that misses C_P ends
+    at its (F + 1)-th failure, F = 4 for 200 samples at 98 %: the first candidate gets the
+    verdict of its full validation from the same samples' prefix, a design that meets C_P
+    gets every sample, and the table says where a validation stopped.  A run recorded
+    without it (older runs) keeps its full validations on resume."""
+    kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
+              optimizer_options=FAST, validation_candidates=6)
+    full = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "full",
+                           validation_stop=False, **kw)
+    stop = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "stop", **kw)
+    assert stop["validation_stop"] is True and full["validation_stop"] is False
+    # the first candidate (ranked before any validation, so the same in both runs) failed
+    # its full validation; stopped, it fails at the 5th failure of the same samples
+    assert len(full["table"]) > 1
+    first_eval = full["table"][1]["evaluation"]
+    rows = {r["evaluation"]: r for r in stop["table"]}
+    first_stop = rows[first_eval]["validation"]
+    records = {}
+    for line in (tmp_path / "full" / "validation.jsonl").read_text().splitlines():
+        rec = json.loads(line)
+        if rec["design"] == full_design(full, first_eval):
+            records[rec["index"]] = rec["success"]
+    successes = [records[i] for i in range(200)]
+    failures_at = [i + 1 for i, ok in enumerate(successes) if not ok]
+    assert len(failures_at) >= 5
+    assert first_stop["stopped"] and not first_stop["meets_requirement"]
+    assert first_stop["samples"] == failures_at[4]
+    assert first_stop["successes"] == failures_at[4] - 5
+    for r in stop["table"]:
+        v = r["validation"]
+        if v["meets_requirement"]:
+            assert v["samples"] == 200 and not v["stopped"]
+        else:
+            assert v["stopped"] and v["samples"] - v["successes"] == 5 and v["samples"] < 200
+    assert any(r["validation"]["stopped"] for r in stop["table"])
+    assert "stopped at the failure that decided it" in (tmp_path / "stop" / "results.md").read_text()
+    # resuming the run recorded without the stop keeps every validation whole
+    be = SyntheticBackend()
+    again = optimize_design("mass", backend=be, run_dir=tmp_path / "full", resume=True, **kw)
+    assert again["validation_stop"] is False and be.tasks == []
+    assert [r["validation"]["samples"] for r in again["table"]] == [200] * len(again["table"])
+
+
+def full_design(summary, evaluation):
+    """The design dict of ``evaluation`` in a run's table."""
+    return next(r["x"] for r in summary["table"] if r["evaluation"] == evaluation)
 
 
 class KillAfter(EpisodeBackend):

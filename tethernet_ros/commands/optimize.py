@@ -48,6 +48,11 @@ def add_arguments(p):
                    help="how a validation meets P*_s >= 0.98: by its estimate (default, the "
                         "source's test) or by the lower end of its Wilson 95 %% interval (may "
                         "change on --resume)")
+    p.add_argument("--validation-stop", action=argparse.BooleanOptionalAction, default=None,
+                   help="end a validation at the failure that decides it misses 0.98 (e.g. "
+                        "the 21st of 1000; the chosen design always gets every sample). "
+                        "Default: on for a new run; on --resume, as the run recorded it (off "
+                        "for runs that predate it)")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
@@ -252,7 +257,8 @@ def run(args) -> int:
             validation_samples=args.validation_samples, config=config, noise_model=model,
             seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
             validation_candidates=args.validation_candidates,
-            validation_rule=args.validation_rule, sequential=not args.full_sampling,
+            validation_rule=args.validation_rule, validation_stop=args.validation_stop,
+            sequential=not args.full_sampling,
             compare_reference=args.compare_reference,
             progress=bar, optimizer_options=options)
     except (RunError, CheckpointError) as exc:
