@@ -100,6 +100,27 @@ def status_text(st: dict) -> str:
                      f"{b['objective']:.4g}, P*_s {b['successes']}/{b['samples']}, m_a "
                      f"{b['mass']:.3f} kg, mean T "
                      + ("n/a" if t is None or not math.isfinite(t) else f"{t:.2f} s"))
+    chosen = chosen_text(st["summary"])
+    if chosen:
+        lines.append(chosen)
     if st["figure"]:
         lines.append(f"figure so far: {st['figure']}")
     return "\n".join(lines)
+
+
+def chosen_text(summary: dict | None) -> str | None:
+    """A finished run's choice after validation, in a line (None before the end or when
+    nothing was chosen)."""
+    if not summary or not isinstance(summary.get("best_evaluation"), int):
+        return None
+    text = (f"chosen after validation: evaluation {summary['best_evaluation']}, objective "
+            f"{summary['best_objective']:.4g}")
+    v = summary.get("validation")
+    if v:
+        rule = (" by the lower end of its Wilson 95 % interval"
+                if summary.get("validation_rule") == "wilson" else "")
+        verdict = "meets" if v.get("meets_requirement") else "does NOT meet"
+        text += (f", validated P*_s {v['successes']}/{v['samples']} "
+                 f"[{v['wilson'][0]:.3f}, {v['wilson'][1]:.3f}], {verdict} C_P = "
+                 f"{summary.get('p_threshold', 0.98):g}{rule}")
+    return text

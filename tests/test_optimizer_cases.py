@@ -420,6 +420,12 @@ def test_cli_status_reads_the_run_directory(cli_run):
     assert st["best"]["objective"] == d["best_objective"]
     assert st["summary"]["best_evaluation"] == d["best_evaluation"]
     assert (run_dir / "progress.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    text = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "optimize", "--status",
+                           "--run-dir", str(run_dir)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120).stdout
+    v = d["validation"]
+    assert (f"chosen after validation: evaluation {d['best_evaluation']}, objective "
+            f"{d['best_objective']:.4g}, validated P*_s {v['successes']}/{v['samples']}") in text
     bad = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "optimize", "--status",
                           "--run-dir", str(run_dir / "nowhere")],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
