@@ -7,7 +7,7 @@ classes lazily.  Readers of request fields validate them: RequestError names the
 
 Units: SI; times in s (builtin_interfaces/Time: sec + nanosec).  Quaternions are
 (w, x, y, z) in the core and (x, y, z, w) in geometry_msgs.  NetState body order is the
-core's body layout (core/scenario.py): 289 net nodes (row-major), 4 corner masses, then
+core's body layout (core/layout.py): 289 net nodes (row-major), 4 corner masses, then
 the main tether's lumped masses from the net centre toward the chaser, whose last entry
 is the winch body on the chaser (so ``num_tether_nodes`` = tether_segments).
 """
