@@ -325,7 +325,12 @@ def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
             assert v["stopped"] and v["samples"] - v["successes"] == 5 and v["samples"] < 200
     assert any(r["validation"]["stopped"] for r in stop["table"])
     assert "stopped at the failure that decided it" in (tmp_path / "stop" / "results.md").read_text()
-    # resuming the run recorded without the stop keeps every validation whole
+    # resuming a run recorded without the stop (here: from before the setting existed)
+    # keeps every validation whole
+    settings_file = tmp_path / "full" / "run.json"
+    saved = json.loads(settings_file.read_text())
+    del saved["validation_stop"]
+    settings_file.write_text(json.dumps(saved))
     be = SyntheticBackend()
     again = optimize_design("mass", backend=be, run_dir=tmp_path / "full", resume=True, **kw)
     assert again["validation_stop"] is False and be.tasks == []
