@@ -21,10 +21,22 @@ import numpy as np
 
 from .sequential import SequentialRule
 
-__all__ = ["Case", "CASES", "CASE_MASS", "CASE_TIME", "get_case", "P_SUCCESS"]
+__all__ = ["Case", "CASES", "CASE_MASS", "CASE_TIME", "get_case", "P_SUCCESS",
+           "VALIDATION_RULES", "validation_rule_text"]
 
 #: name of the modelled constraint (observed P*_s = k/N)
 P_SUCCESS = "p_success"
+
+#: How a validation meets the requirement C_P: by its estimate P*_s over the fresh samples
+#: (the source's test) or by the lower end of its Wilson 95 % interval
+#: (``optimizer.finish.meets_requirement`` applies them).
+VALIDATION_RULES = ("estimate", "wilson")
+
+
+def validation_rule_text(rule: str | None) -> str:
+    """The rule as the words that follow "meets C_P = 0.98" in reports ("" for the
+    source's test)."""
+    return " by the lower end of its Wilson 95 % interval" if rule == "wilson" else ""
 
 
 @dataclass(frozen=True)

@@ -2,16 +2,12 @@
 summary and write the results table and the convergence figure."""
 from __future__ import annotations
 
-from .cases import P_SUCCESS
+from .cases import P_SUCCESS, VALIDATION_RULES, validation_rule_text
 from .report import plot_convergence, write_results
 from .selection import rank_candidates, validation_evidence
 from .sequential import SequentialRule
 
-__all__ = ["finish_run", "meets_requirement", "sampling_counts", "VALIDATION_RULES"]
-
-#: How a validation meets the requirement C_P: by its estimate P*_s over the fresh samples
-#: (the source's test) or by the lower end of its Wilson 95 % interval.
-VALIDATION_RULES = ("estimate", "wilson")
+__all__ = ["finish_run", "meets_requirement", "sampling_counts"]
 
 
 def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
@@ -57,7 +53,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                           else tried[0])
         if n_candidates > 1:
             rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}"
-                     f"{_RULE_TEXT[v_rule]}, the ranking redone after each failure with its "
+                     f"{validation_rule_text(v_rule)}, the ranking redone after each failure with its "
                      f"validation in the constraint GP's data ({len(tried)} of at most "
                      f"{n_candidates} validated)")
         validation = _validation_dict(vres, case, v_rule, val_n)
@@ -161,9 +157,6 @@ def meets_requirement(result, case, rule: str = "estimate") -> bool:
     value = result.ci_low if rule == "wilson" else result.p_success
     return value >= case.p_threshold
 
-
-#: the rule in the sentence of the selection rule
-_RULE_TEXT = {"estimate": "", "wilson": " by the lower end of its Wilson 95 % interval"}
 
 
 def _index(history, obs) -> int:

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .cases import P_SUCCESS, Case
+from .cases import P_SUCCESS, Case, validation_rule_text
 from .jsonio import atomic_write_text
 
 __all__ = ["write_history", "write_results", "plot_convergence", "results_markdown"]
@@ -142,8 +142,7 @@ def results_markdown(summary: dict) -> str:
         out.append(f"Validated with {v['samples']} fresh samples (base seed {v['base_seed']}): "
                    f"P*_s {'meets' if v['meets_requirement'] else 'does NOT meet'} the "
                    f"requirement C_P = {summary['p_threshold']:g}"
-                   + (" by the lower end of its Wilson 95 % interval"
-                      if summary.get("validation_rule") == "wilson" else "") + ".")
+                   f"{validation_rule_text(summary.get('validation_rule'))}.")
     out.append("mean T is over all samples (closing never triggered: T = horizon).")
     return "\n".join(out) + "\n"
 

@@ -45,10 +45,10 @@ from typing import Any
 from collections.abc import Callable, Mapping
 
 from .bayesopt import ConstrainedBayesOpt
-from .cases import P_SUCCESS, Case, get_case
+from .cases import P_SUCCESS, VALIDATION_RULES, Case, get_case
 from .checkpoint import CheckpointError, load_checkpoint
 from .evaluator import DesignEvaluator
-from .finish import VALIDATION_RULES, finish_run
+from .finish import finish_run
 from .jsonio import atomic_write_json, json_clean
 from .loop import minimize
 from .observation import Observation

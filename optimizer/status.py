@@ -9,7 +9,7 @@ import json
 import math
 from pathlib import Path
 
-from .cases import P_SUCCESS, get_case
+from .cases import P_SUCCESS, get_case, validation_rule_text
 from .checkpoint import CheckpointError, load_checkpoint
 from .finish import sampling_counts
 from .observation import Observation
@@ -117,10 +117,9 @@ def chosen_text(summary: dict | None) -> str | None:
             f"{summary['best_objective']:.4g}")
     v = summary.get("validation")
     if v:
-        rule = (" by the lower end of its Wilson 95 % interval"
-                if summary.get("validation_rule") == "wilson" else "")
         verdict = "meets" if v.get("meets_requirement") else "does NOT meet"
         text += (f", validated P*_s {v['successes']}/{v['samples']} "
                  f"[{v['wilson'][0]:.3f}, {v['wilson'][1]:.3f}], {verdict} C_P = "
-                 f"{summary.get('p_threshold', 0.98):g}{rule}")
+                 f"{summary.get('p_threshold', 0.98):g}"
+                 f"{validation_rule_text(summary.get('validation_rule'))}")
     return text
