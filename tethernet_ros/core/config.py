@@ -1,8 +1,8 @@
 """Simulation configuration: every model constant and modelling choice with its default,
 its source and its allowed range.
 
-Where the source study's text (SPEC sections 1-3) and its reference implementation (Botta
-et al.'s Vortex model, SPEC section 10) differ, both are selectable; ``MODEL_PRESETS``
+Where the source study's text (docs/model.md §1-5) and its reference implementation (Botta
+et al.'s Vortex model, docs/model.md §10) differ, both are selectable; ``MODEL_PRESETS``
 names the two complete models ("spec-text", "reference").  docs/model.md lists every
 value with its source.
 
@@ -92,8 +92,8 @@ class SimConfig:
     max_speed (m/s): any body faster than this marks the episode as diverged.
     Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
 
-    Modelling choices (text = SPEC sections 1-3, code = the reference implementation,
-    SPEC section 10):
+    Modelling choices (text = docs/model.md §1-5, code = the reference implementation,
+    docs/model.md §10):
     thread_damping: "element" (text: c = 2 zeta sqrt(k m_eff) per thread) or "stiffness"
     (code: c = 2 zeta k / omega_1, omega_1 the net's first axial natural frequency);
     friction: kinetic Coulomb coefficient (text 0.3; code net-aluminium 0.19 / 1.25 =
@@ -180,7 +180,7 @@ class SimConfig:
             if int(getattr(self, name)) != getattr(self, name):
                 raise ConfigError(f"config field '{name}': must be an integer")
         if self.grid_nodes != 17:
-            raise ConfigError("config field 'grid_nodes': only the 17 x 17 grid of SPEC section 2 is supported")
+            raise ConfigError("config field 'grid_nodes': only the 17 x 17 grid of docs/model.md §1 is supported")
         idx = tuple(self.closing_indices)
         if len(idx) < 2 or idx[0] != 0 or idx[-1] != self.grid_nodes - 1 or list(idx) != sorted(set(idx)):
             raise ConfigError("config field 'closing_indices': must be increasing grid indices "
@@ -243,8 +243,9 @@ class SimConfig:
 
 
 #: Named models: field values that differ from the defaults.  The defaults are the
-#: reference implementation's model (SPEC section 10) on the implicit method at its 1 ms
-#: step ("reference" changes nothing).  "spec-text": the model as SPEC sections 1-3 word it,
+#: reference implementation's model (docs/model.md §10) on the implicit method at its 1 ms
+#: step ("reference" changes nothing).  "spec-text": the model as the source's text words it
+#: (docs/model.md §1-5),
 #: on the explicit method: the project's model up to the reference study, kept so that its
 #: results are reproduced bit for bit (tests/test_kernel_golden.py).
 MODEL_PRESETS: dict[str, dict] = {

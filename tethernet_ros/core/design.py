@@ -1,5 +1,5 @@
-"""Net design and launch actions: the 8 variables of SPEC section 5, their bounds,
-validation at the edge, the reference designs of SPEC section 8 and the system mass m_a.
+"""Net design and launch actions: the 8 variables of docs/model.md §8, their bounds,
+validation at the edge, the reference designs of docs/model.md §9 and the system mass m_a.
 
 Units: kg, m, m/s.
 """
@@ -12,7 +12,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-#: Order of the optimisation vector X (SPEC section 5).
+#: Order of the optimisation vector X (docs/model.md §8).
 VARIABLE_NAMES: tuple[str, ...] = ("m_c", "L_n", "r_n", "d_L", "V_x", "V_y", "V_z", "d_c")
 
 #: Search bounds of the optimiser (lower, upper), same order as VARIABLE_NAMES.
@@ -125,7 +125,7 @@ class Design:
 
 def system_mass(m_c: float, L_n: float, r_n: float, density: float = THREAD_DENSITY) -> float:
     """m_a = 38 L_n pi r_n^2 rho + 4 m_c (kg): 17 + 17 grid threads of length L_n plus an
-    allowance for the closing thread, and four corner masses (SPEC section 5)."""
+    allowance for the closing thread, and four corner masses (docs/model.md §8)."""
     return 38.0 * L_n * math.pi * r_n**2 * density + 4.0 * m_c
 
 
@@ -165,7 +165,7 @@ def check_within_bounds(x: Sequence[float]) -> None:
             raise DesignError(name, f"got {value}; the optimiser searches [{lo}, {hi}]")
 
 
-#: Reference designs of SPEC section 8.
+#: Reference designs of docs/model.md §9.
 REFERENCE_DESIGNS: dict[str, Design] = {
     "baseline": Design(m_c=0.5, L_n=20.0, r_n=0.001, d_L=20.0, V_e=(0.40, 0.40, 2.00), d_c=0.50),
     "suboptimal": Design(m_c=3.83, L_n=21.4, r_n=0.002, d_L=17.87, V_e=(2.30, 4.95, 6.54), d_c=1.57),
@@ -176,8 +176,8 @@ REFERENCE_DESIGNS: dict[str, Design] = {
 
 @dataclass(frozen=True)
 class PublishedOutcome:
-    """What the source study published for a reference design (its Table 4, SPEC section
-    11): m_a (kg), mean T (s), P*_s during optimisation (N = 100; None where not given)
+    """What the source study published for a reference design (its Table 4, docs/model.md
+    §11): m_a (kg), mean T (s), P*_s during optimisation (N = 100; None where not given)
     and validated P*_s (N = 1000)."""
 
     mass: float

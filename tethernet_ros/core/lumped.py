@@ -1,4 +1,4 @@
-"""The net's lumped-parameter model (SPEC sections 1-3): thread properties, the stowed
+"""The net's lumped-parameter model (docs/model.md §1-5): thread properties, the stowed
 initial state, lumped masses, the threads other than the grid's (corner threads, main
 tether), the threads' damping and the bodies' contact spheres.  Each function computes
 one of these from the design and the configuration; ``scenario.build_scenario`` composes

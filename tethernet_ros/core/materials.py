@@ -16,7 +16,7 @@ from scipy.linalg import eigh_tridiagonal
 def element_damping(k, m_a, m_b, zeta):
     """Per-element Kelvin-Voigt damping c = 2 zeta sqrt(k m_eff) (N s/m), m_eff = m_a m_b /
     (m_a + m_b) computed so that it is the same to the last bit whichever end comes first
-    (SPEC section 2)."""
+    (docs/model.md §2)."""
     m_eff = (m_a * m_b) / (m_a + m_b)
     return 2.0 * zeta * np.sqrt(k * m_eff)
 
@@ -24,7 +24,7 @@ def element_damping(k, m_a, m_b, zeta):
 def stiffness_damping(k, zeta, omega_1):
     """Stiffness-proportional damping c = 2 zeta k / omega_1 (N s/m): every mode of
     frequency omega gets the damping ratio zeta omega / omega_1, the net's first axial mode
-    exactly zeta (the reference implementation, SPEC section 10)."""
+    exactly zeta (the reference implementation, docs/model.md §10)."""
     return 2.0 * zeta * np.asarray(k, dtype=float) / omega_1
 
 

@@ -1,4 +1,4 @@
-"""Capture metrics of SPEC section 4: the Capture Quality Index, locked pairs, success.
+"""Capture metrics of docs/model.md §7: the Capture Quality Index, locked pairs, success.
 
 This is the one CQI function of the project (library, workers, monitor node, replay), and
 the one home of the success rule (:func:`capture_verdict`) and of the failure categories
@@ -89,7 +89,7 @@ def pairs_fail(locked_pairs: int, min_locked_pairs: int = 10) -> bool:
 
 def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
                     min_locked_pairs: int = 10) -> tuple[bool, str]:
-    """Success rule of SPEC section 4: I*_CQ <= max_cqi and n_L >= min_locked_pairs.
+    """Success rule of docs/model.md §7: I*_CQ <= max_cqi and n_L >= min_locked_pairs.
     Returns (success, failure reason or '')."""
     if not math.isfinite(settled_cqi):
         return False, "settled CQI is not finite"

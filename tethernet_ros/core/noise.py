@@ -1,4 +1,4 @@
-"""The uncertainty model of SPEC section 6: one seeded draw of every noise per sample.
+"""The uncertainty model of docs/noise.md: one seeded draw of every noise per sample.
 
 World noises (belong to the scenario): distance offset D_rnd (m) and target rotation
 alpha_rnd (rad) about the configured axis.  Actuator noises: per corner mass a launch speed
@@ -61,7 +61,7 @@ class NoiseSample:
 
 @dataclass(frozen=True)
 class NoiseModel:
-    """Spreads of SPEC section 6 (standard deviations unless stated) and per-source scale
+    """Spreads of docs/noise.md §1 (standard deviations unless stated) and per-source scale
     factors that multiply them.
 
     sigma_distance (m), sigma_orientation_deg (deg), sigma_speed (m/s),
@@ -150,7 +150,7 @@ def nominal_corner_velocities(V_e) -> np.ndarray:
 
 
 def perturb_velocity(v: np.ndarray, speed_offset: float, polar: float, azimuth: float) -> np.ndarray:
-    """Apply the spherical perturbation of SPEC section 6 to one velocity (m/s).
+    """Apply the spherical perturbation of docs/noise.md §3 to one velocity (m/s).
 
     The speed |v| changes by ``speed_offset``; the direction is tilted away from the
     nominal direction u by ``polar`` (rad) in the plane spanned by u and

@@ -131,7 +131,7 @@ def _check_inputs(actions: Actions, world: World) -> np.ndarray:
 
 def build_scenario(design: Design, actions: Actions, world: World,
                    config: SimConfig | None = None) -> Scenario:
-    """Initial state of an episode (SPEC sections 1-3): the stowed net at the launch point,
+    """Initial state of an episode (docs/model.md §1-5): the stowed net at the launch point,
     corner masses leaving with ``actions.corner_velocities``, the target at rest at
     (0, 0, world.distance) rotated by world.rotation, closing armed at
     ``actions.closing_displacement``.  The model's parts come from ``lumped``."""

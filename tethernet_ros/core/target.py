@@ -6,7 +6,7 @@ the axial coordinate (m, body frame, origin at the centre of mass) and r the sig
 coordinate (m), symmetric about r = 0.  The signed distance of a point is the minimum over
 the solids of the 2D polygon distance in its meridional plane (exact outside the body).
 
-Defaults (SPEC section 1): cylinder of diameter 3.9 m and length 10.4 m, dry mass 8300 kg,
+Defaults (docs/model.md §1): cylinder of diameter 3.9 m and length 10.4 m, dry mass 8300 kg,
 uniform density.  An engine-nozzle frustum may be added behind the -x end.
 """
 from __future__ import annotations
