@@ -1,4 +1,4 @@
-"""Reliability-constrained Bayesian optimiser (SPEC section 7), simulator-independent: it
+"""Reliability-constrained Bayesian optimiser (docs/optimizer.md), simulator-independent: it
 imports nothing of the simulator, which it sees through :mod:`optimizer.problem`.
 
 A module per job, in reading order:
@@ -6,7 +6,7 @@ A module per job, in reading order:
 ================  =========================================================================
 problem.py        the interface a simulator implements (DesignProblem, ReliabilityEstimate)
 run.py            a whole run of Case 1 or 2: run directory, resume, validation, reports
-cases.py          the two cases of SPEC section 7
+cases.py          the two cases of docs/optimizer.md §1
 evaluator.py      one design -> one observation (P*_s = k/n with its binomial variance)
 sequential.py     stop sampling a design as soon as its feasibility is decided
 bayesopt.py       the ask/tell optimiser (seed design, active set, state for checkpoints)

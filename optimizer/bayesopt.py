@@ -1,4 +1,4 @@
-"""Reliability-constrained Bayesian optimisation over a box (SPEC section 7): the ask/tell
+"""Reliability-constrained Bayesian optimisation over a box (docs/optimizer.md §4): the ask/tell
 optimiser :class:`ConstrainedBayesOpt` (:func:`optimizer.loop.minimize` drives it).
 
 Simulator-independent: the expensive function is any callable. The optimiser minimises an
@@ -341,7 +341,7 @@ class ConstrainedBayesOpt:
         that every coupled constraint holds at the design (constraint GPs fitted on the
         active set, latent function, i.e. observation noise removed) to be at least that
         value, which pools the evidence of neighbouring evaluations. Either way the
-        winner should be validated with a larger fresh sample (SPEC: 1000 samples).
+        winner should be validated with a larger fresh sample (docs/optimizer.md §6: 1000 samples).
         """
         ranked = self.ranked_feasible(min_probability)
         return ranked[0] if ranked else None

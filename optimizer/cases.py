@@ -1,4 +1,4 @@
-"""The two design problems of SPEC section 7.
+"""The two design problems of docs/optimizer.md §1.
 
 Both search the design vector X = [m_c, L_n, r_n, d_L, V_x, V_y, V_z, d_c] within the
 bounds of a :class:`~optimizer.problem.DesignProblem` and require the success probability
@@ -41,11 +41,11 @@ def validation_rule_text(rule: str | None) -> str:
 
 @dataclass(frozen=True)
 class Case:
-    """One optimisation problem of SPEC section 7.
+    """One optimisation problem of docs/optimizer.md §1.
 
     name: ``"mass"`` (Case 1) or ``"time"`` (Case 2); objective: ``"mass"`` (m_a, kg) or
     ``"mean_completion_time"`` (mean T, s); p_threshold: C_P; mass_limit: C_m (kg) or None;
-    reference: name of the SPEC section 8 design found by the source for this case.
+    reference: name of the docs/model.md §9 design found by the source for this case.
     """
 
     name: str

@@ -75,7 +75,7 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
                 "mean_completion_time": r.mean_completion_time}
         vref = _validation_dict(validate(ref, case.reference) if val_n else None, case,
                                 v_rule, val_n)
-        rows.append(_row(f"reference {case.reference} (SPEC 8)", problem.design_dict(ref), info,
+        rows.append(_row(f"reference {case.reference} (docs/model.md §9)", problem.design_dict(ref), info,
                          vref, evaluation=None))
 
     summary = {

@@ -62,7 +62,7 @@ def write_history(path: str | Path, history, variable_names: Sequence[str]) -> N
 
 def write_results(csv_path: str | Path, md_path: str | Path, summary: dict) -> None:
     """``results.csv`` (one row per table row, every number) and ``results.md`` (the
-    SPEC section 9 table: m_a, mean T, P*_s during optimisation, validated P*_s with its
+    table of docs/model.md §12: m_a, mean T, P*_s during optimisation, validated P*_s with its
     Wilson and Clopper-Pearson 95 % intervals)."""
     rows = summary["table"]
     with open(csv_path, "w", newline="", encoding="utf-8") as fh:

@@ -9,7 +9,7 @@ and keeps everything in one run directory::
     samples.jsonl     every Monte Carlo sample of the optimisation (appended as it finishes)
     validation.jsonl  every validation sample
     history.csv       one row per evaluated design
-    results.csv/.md   the results table (SPEC section 9)
+    results.csv/.md   the results table (docs/model.md §12, docs/optimizer.md §7)
     convergence.png   objective, best feasible so far, P*_s and m_a per evaluation
     summary.json      what :func:`run_optimization` returns
 
@@ -108,8 +108,8 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
         problem: the design space and its Monte Carlo evaluation (its backend stays open;
             the caller closes it).
         iterations, seed_points: model-based iterations after ``seed_points`` space-filling
-            seed designs (SPEC reference: 200 and 50).
-        samples: Monte Carlo samples per design during optimisation (SPEC: 100).
+            seed designs (the source's setup, docs/optimizer.md §4: 200 and 50).
+        samples: Monte Carlo samples per design during optimisation (docs/optimizer.md §2: 100).
         run_dir: the run directory (default ``out/optimize/case<N>-<name>``).
         resume: continue the run in ``run_dir``; without it a run directory that already
             holds a checkpoint is an error.  Resuming a directory with no checkpoint starts
@@ -127,7 +127,7 @@ def run_optimization(case: str | Case, problem: DesignProblem, iterations: int =
             docstring); False: every design gets all ``samples``.
         min_probability: posterior-feasibility filter of the final choice
             (:func:`optimizer.selection.select_best`; None: plain observed-feasible rule).
-        compare_reference: also evaluate the case's SPEC section 8 reference design with
+        compare_reference: also evaluate the case's docs/model.md §9 reference design with
             the optimisation and the validation samples (an extra table row).
         progress: ``progress(event)`` with a dict ``event["stage"]`` in ``"start"``,
             ``"sample"`` (``evaluation``, ``done``, ``total``), ``"evaluation"``

@@ -5,7 +5,7 @@ Among the evaluated designs whose observed P*_s met C_P, keep those whose constr
 probability of at least ``min_probability`` (default 0.5) that the true P*_s >= C_P; take
 the lowest objective (earliest on ties).  If that filter leaves nothing, fall back to the
 plain observed-feasible rule and say so.  Either way the winner is then validated with
-fresh samples (SPEC: 1000) by :mod:`optimizer.finish`; the validated P*_s and its interval
+fresh samples (docs/optimizer.md §6: 1000) by :mod:`optimizer.finish`; the validated P*_s and its interval
 are what the results table reports.  A design chosen from 100-sample estimates at the
 constraint's edge may fail that validation (the lightest of many designs near C_P is the
 luckiest); with ``validation_candidates`` K > 1 the run validates candidates in turn

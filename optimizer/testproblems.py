@@ -156,7 +156,7 @@ class Gramacy2016(TestProblem):
 
 
 class NoisyGramacy2016(TestProblem):
-    """Reliability-constrained variant of :class:`Gramacy2016` mirroring SPEC section 7
+    """Reliability-constrained variant of :class:`Gramacy2016` mirroring docs/optimizer.md §1-2
     (``P*_s >= 98 %`` estimated from N = 100 Monte Carlo samples, mass constraint cheap).
 
     The first constraint becomes a success probability ``p(x) = Phi(-c1(x) / s)``
