@@ -29,7 +29,7 @@ class SimulatorProblem:
     """Case 1 / Case 2 designs evaluated by simulation (see the module docstring).
 
     backend: where the episodes run (kept open; the caller closes it); config, noise_model:
-    every episode's SimConfig and NoiseModel (SPEC defaults).
+    every episode's SimConfig and NoiseModel (defaults: docs/model.md, docs/noise.md).
     """
 
     variable_names: Sequence[str] = VARIABLE_NAMES
@@ -62,12 +62,12 @@ class SimulatorProblem:
         return Design.from_vector(x).to_dict()
 
     def reference_design(self, name: str) -> np.ndarray | None:
-        """X of a SPEC section 8 reference design (None for an unknown name)."""
+        """X of a docs/model.md §9 reference design (None for an unknown name)."""
         ref = REFERENCE_DESIGNS.get(name)
         return None if ref is None else ref.to_vector()
 
     def published_outcome(self, name: str) -> dict | None:
-        """The source's Table 4 row of a reference design (SPEC section 11)."""
+        """The source's Table 4 row of a reference design (docs/model.md §11)."""
         po = PUBLISHED_OUTCOMES.get(name)
         return None if po is None else asdict(po)
 

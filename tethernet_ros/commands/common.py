@@ -27,7 +27,7 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_config_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", default=None, metavar="FILE.yaml",
-                   help="simulation settings overriding the SPEC defaults (SimConfig fields, "
+                   help="simulation settings overriding the defaults of docs/model.md (SimConfig fields, "
                         "e.g. settle_time: 20.0, dt_safety: 0.5, target: {nozzle: true})")
 
 

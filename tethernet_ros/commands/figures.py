@@ -1,4 +1,4 @@
-"""`tethernet figures`: the PNG figures of SPEC section 9, one subcommand each.
+"""`tethernet figures`: the PNG figures of docs/model.md §12, one subcommand each.
 
   cqi          CQI over time of every Monte Carlo sample (grey) and the mean (black)
   snapshots    one capture at four moments, in 3D with the target

@@ -1,4 +1,4 @@
-"""`tethernet optimize`: reliability-constrained Bayesian optimisation (SPEC section 7).
+"""`tethernet optimize`: reliability-constrained Bayesian optimisation (docs/optimizer.md).
 
 Case 1 (``--case mass``): minimise m_a s.t. P*_s >= 0.98.  Case 2 (``--case time``):
 minimise mean T s.t. P*_s >= 0.98 and m_a <= 15 kg.  Every evaluation is checkpointed in
@@ -80,8 +80,8 @@ def add_arguments(p):
     p.add_argument("--validation-seed", type=int, default=0, metavar="B",
                    help="base seed of the validation samples (default 0, as tethernet validate)")
     p.add_argument("--compare-reference", action="store_true",
-                   help="also evaluate and validate the case's SPEC reference design "
-                        "(mass-min / time-min) for the results table")
+                   help="also evaluate and validate the case's reference design "
+                        "(mass-min / time-min, docs/model.md §9) for the results table")
     add_noise_arguments(p)
     add_config_argument(p)
     p.add_argument("--json", action="store_true", help="print the run summary as JSON")

@@ -1,7 +1,7 @@
 """`tethernet study NAME`: a study of the model or of its numerical method over common
 random numbers, with its table and figure written under docs/studies/.
 
-  models       the default model, each modelling choice of SPEC section 10 switched alone
+  models       the default model, each modelling choice of docs/model.md §10 switched alone
                to the source's text, and all of the text together
   convergence  the default against half its step (P*_s, flipped verdicts, mean T)
   agreement    the default integrator against the other one on the same model

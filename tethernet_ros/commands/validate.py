@@ -1,6 +1,6 @@
 """`tethernet validate`: Monte Carlo reliability of a design (P*_s, mean T, failures).
 
-Prints a row of the SPEC section 9 results table per design; ``--reference`` runs the four
+Prints a row of the docs/model.md §12 results table per design; ``--reference`` runs the four
 reference designs.  Every finished sample is appended to a results file (default
 ``out/montecarlo/<design>_seed<BASE>.jsonl``), so an interrupted run resumes when it is
 run again and a finished one is read back instead of simulated (``--fresh`` ignores it).
@@ -182,7 +182,7 @@ def failures_text(r) -> str:
 
 
 def results_table(results) -> str:
-    """Rows like SPEC section 9's results table: design, m_a, mean T, P*_s [CI], N, failures."""
+    """Rows like the results table of docs/model.md §12: design, m_a, mean T, P*_s [CI], N, failures."""
     head = ["design", "m_a (kg)", "mean T (s)", "P*_s [95% CI]", "N", "failures"]
     rows = [[r.label, fmt(r.mass), fmt(r.mean_completion_time),
              f"{fmt(r.p_success, 3)} [{fmt(r.ci_low, 3)}, {fmt(r.ci_high, 3)}]",

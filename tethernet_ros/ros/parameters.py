@@ -2,7 +2,7 @@
 
 config/tethernet.yaml mirrors these defaults (tests/test_ros_bags.py checks that they
 agree).  Rates are in Hz of *simulated* time; timeouts in wall-clock seconds; SI units.
-The actuator's noise spreads default to the core's NoiseModel (SPEC section 6).
+The actuator's noise spreads default to the core's NoiseModel (docs/noise.md §1).
 """
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ DEFAULTS: dict[str, dict] = {
         "frame_id": "chaser",
     },
     "actuator_node": {
-        # spreads of SPEC section 6 (each request's NoiseSettings scales them)
+        # spreads of docs/noise.md §1 (each request's NoiseSettings scales them)
         **{f"noise.{k}": float(v) for k, v in NoiseModel().spreads().items()},
         "min_command_subscribers": 3,         # sim + monitor + recorder
         "match_timeout": 5.0,
@@ -35,8 +35,8 @@ DEFAULTS: dict[str, dict] = {
     "capture_node": {
         "bag_dir": "bags",
         "compression": "zstd",       # MCAP chunk compression: zstd or none
-        "settle_time": 20.0,         # s (sim) after closing activation: SPEC default
-        "horizon": 120.0,            # s (sim): SPEC default
+        "settle_time": 20.0,         # s (sim) after closing activation: docs/model.md §7
+        "horizon": 120.0,            # s (sim): docs/model.md §7
         "sim_config": "{}",          # JSON of further SimConfig overrides
         "start_timeout": 60.0,       # s (wall) for the first state of an episode
         "stall_timeout": 15.0,       # s (wall) without a new state -> the episode is aborted

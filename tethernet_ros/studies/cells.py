@@ -1,7 +1,7 @@
 """The cells of each study: a label and a full simulation configuration.
 
-``models``: the default model, then each modelling choice of SPEC section 10 switched
-alone to what the source's text says (SPEC sections 1-3), then all of them together.
+``models``: the default model, then each modelling choice of docs/model.md §10 switched
+alone to what the source's text says (docs/model.md §1-5), then all of them together.
 ``convergence``: the default, the same with half the step and with twice the implicit
 solver's sweeps.  ``agreement``: the default integrator against the other one, same model.
 """
@@ -79,7 +79,7 @@ def model_cells(base: SimConfig) -> list[Cell]:
         for label, overrides, what in OPEN_CHOICES:
             cells.append(Cell(label, what, base.replace(**overrides)))
     cells.append(Cell("orientation about y", "the target's orientation noise about y (across the "
-                      "line of sight) instead of z, SPEC section 1's alternative", base,
+                      "line of sight) instead of z, the alternative of docs/model.md §1", base,
                       NoiseModel(orientation_axis="y")))
     return cells
 
