@@ -38,7 +38,7 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=12, help="samples per backend (default 12)")
     ap.add_argument("--design", default="time-min")
     ap.add_argument("--settle-time", type=float, default=None,
-                    help="settling time (s); default the SPEC's 20 s")
+                    help="settling time (s); default 20 s, docs/model.md §7")
     ap.add_argument("--workers", type=int, default=2, help="pool size for the scaling run (default 2)")
     ap.add_argument("--seed", type=int, default=7, help="base seed of the samples (default 7)")
     ap.add_argument("--skip-dask", action="store_true")

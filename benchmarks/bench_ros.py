@@ -4,7 +4,7 @@ and the largest state publish rate the suite keeps up with.  Prints numbers; no 
     .venv/bin/python benchmarks/bench_ros.py [--design time-min] [--seed 3]
         [--rates 10,30,100,300,1000] [--sweep-settle 2.0] [--repeat 6]
 
-1. Ratio: the same episode (SPEC configuration) run by ``run_episode`` in this process
+1. Ratio: the same episode (default configuration) run by ``run_episode`` in this process
    (kernels warm) and by a warm suite (nodes already started, bag recorded, default
    publish rate), in ``--repeat`` side-by-side pairs; median and range of the pair
    ratios.  Goal: ratio <= 1.3.

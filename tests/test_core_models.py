@@ -1,4 +1,4 @@
-"""The reference implementation's modelling choices (SPEC section 10) against closed forms:
+"""The reference implementation's modelling choices (docs/model.md §10) against closed forms:
 the net's first axial frequency, stiffness-proportional thread damping, Hertz contact
 stiffness, sphere sizes, the latch lock and the drawstring through the corner masses."""
 import math
@@ -98,7 +98,7 @@ def test_implicit_step_decays_as_implicit_euler_and_converges():
 
 
 def test_hertz_stiffness_matches_the_reference_values():
-    """SPEC section 10: about 3.6e6 N/m for a 7 mm net node and 7.9e6 N/m for a 0.5 kg
+    """docs/model.md §10: about 3.6e6 N/m for a 7 mm net node and 7.9e6 N/m for a 0.5 kg
     aluminium corner mass (Hertz at 0.1 mm, divided by 10)."""
     e_net = materials.effective_modulus(70e9, 0.36, 69e9, 0.33)
     e_al = materials.effective_modulus(69e9, 0.33, 69e9, 0.33)

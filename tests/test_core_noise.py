@@ -1,4 +1,4 @@
-"""The noise sampler of SPEC section 6: statistics, spherical perturbation, scaling."""
+"""The noise sampler of docs/noise.md: statistics, spherical perturbation, scaling."""
 import math
 
 import numpy as np

@@ -1,5 +1,5 @@
 """Physics verification of the explicit method against analytic results and invariants, on
-the "spec-text" model (SPEC sections 1-3; the implicit method and the reference model have
+the "spec-text" model (docs/model.md §1-5; the implicit method and the reference model have
 tests of their own: test_core_implicit.py, test_core_models.py)."""
 import math
 
@@ -14,7 +14,7 @@ from tethernet_ros.core.scenario import World, actions_for, build_scenario, scen
 
 from physics_systems import particle_system
 
-#: the model of SPEC sections 1-3 on the explicit method
+#: the model as the source's text words it (docs/model.md §1-5), on the explicit method
 SPEC_TEXT = SimConfig.preset("spec-text")
 
 E, RHO = 70e9, 1390.0

@@ -1,5 +1,5 @@
-"""Convergence and agreement judged on statistics over common random numbers (SPEC
-section 11), never on one chaotic trajectory.  CI runs short versions; the full studies
+"""Convergence and agreement judged on statistics over common random numbers (docs/model.md
+§11), never on one chaotic trajectory.  CI runs short versions; the full studies
 (N = 200 per design, all four reference designs) are `tethernet study convergence` and
 `tethernet study agreement` (docs/studies/)."""
 import pytest

@@ -1,4 +1,4 @@
-"""Tests of the constrained Bayesian optimiser (optimizer/, SPEC section 7).
+"""Tests of the constrained Bayesian optimiser (optimizer/, docs/optimizer.md).
 
 Budgets and tolerances below were measured on the development machine (2 CPU cores);
 the test problems' optima are recomputed numerically (optimizer.testproblems), never
@@ -76,7 +76,7 @@ def test_gramacy2016_reaches_constrained_optimum():
 
 @pytest.mark.slow
 def test_noisy_reliability_constraint_ends_truly_feasible():
-    """P_s from N = 100 Bernoulli samples, threshold 0.98 (SPEC section 7).
+    """P_s from N = 100 Bernoulli samples, threshold 0.98 (docs/optimizer.md §2).
 
     Measured over seeds 0-6 (10 seed + 40 iterations): the plain best (observed P_s >=
     0.98) had true p >= 0.952 (winner's curse) and objective within -0.031/+0.004 of the

@@ -6,7 +6,7 @@ via-ROS result == in-process result bit for bit; the bag decoded by rosbags and 
 mcap-ros2-support; `tethernet replay` on good, truncated and corrupted bags; invalid
 requests answered with the field named while the node keeps serving; a simulation node
 killed mid-episode gives the caller a clear timeout error and an incomplete-marked bag.
-The last test runs `tethernet capture --via ros` (default SPEC configuration) as a user
+The last test runs `tethernet capture --via ros` (default configuration) as a user
 would.
 """
 from __future__ import annotations
@@ -42,7 +42,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
 DESIGN = load_design("time-min")
 SEED = 3
 NOISE = NoiseModel()
-CONFIG = SimConfig(settle_time=2.0)      # short scenario; everything else the SPEC default
+CONFIG = SimConfig(settle_time=2.0)      # short scenario; everything else the default
 PUBLISH_RATE = 10.0
 MARKER_RATE = 2.0
 ROOT = Path(__file__).resolve().parent.parent
@@ -366,7 +366,7 @@ def test_sim_node_killed_mid_episode(suite):
 
 # --- the command line ----------------------------------------------------------------------------
 def test_cli_capture_via_ros_default_scenario(tmp_path):
-    """`tethernet capture --via ros` with the SPEC configuration (settle time 20 s)."""
+    """`tethernet capture --via ros` with the default configuration (settle time 20 s)."""
     ref = run_episode(DESIGN, NOISE.sample(SEED), SimConfig(), record_trace=False)
     out = run_cli("capture", "--design", "time-min", "--seed", str(SEED), "--via", "ros",
                   "--json", "--bag-name", "cli", cwd=tmp_path,
