@@ -30,6 +30,7 @@ from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.ros.names import NODES, recorder_name  # noqa: E402
+from tethernet_ros.ros.parameters import PARAMETERS  # noqa: E402
 from tethernet_ros.ros.suite import RosSuite, suite_environment  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(300)]
@@ -146,3 +147,94 @@ def test_suite_nodes_have_unique_names(suite):
         assert len(listed) == len(set(listed)), listed
     finally:
         graph.close()
+
+
+# --- parameters ---------------------------------------------------------------------------------
+def set_param(graph: Graph, client: AsyncParameterClient, name: str, value):
+    from rclpy.parameter import Parameter
+
+    return graph.result(client.set_parameters([Parameter(name, value=value)])).results[0]
+
+
+def test_every_parameter_is_described_with_its_range(suite):
+    graph = Graph(int(suite.env["ROS_DOMAIN_ID"]), "tethernet_test_describe")
+    try:
+        for node in NODES:
+            client = graph.params(f"/{node}")
+            names = graph.result(client.list_parameters()).result.names
+            assert set(PARAMETERS[node]) <= set(names), node
+            described = graph.result(client.describe_parameters(names)).descriptors
+            for d in described:
+                assert d.description, (node, d.name)
+                spec = PARAMETERS[node].get(d.name)
+                if spec is None:                       # rclpy's own parameters
+                    continue
+                if isinstance(spec.default, bool) or not isinstance(spec.default, (int, float)):
+                    continue
+                rng = d.floating_point_range if isinstance(spec.default, float) else d.integer_range
+                assert len(rng) == 1, (node, d.name)
+                assert (rng[0].from_value, rng[0].to_value) == (spec.low, spec.high)
+                assert d.additional_constraints.startswith("must be ")
+        # the core's range of the SimConfig fields, not a copy
+        from tethernet_ros.core.config import _LIMITS
+
+        assert (PARAMETERS["capture_node"]["horizon"].low,
+                PARAMETERS["capture_node"]["horizon"].high) == _LIMITS["horizon"][:2]
+    finally:
+        graph.close()
+
+
+def test_bad_parameter_values_are_refused_with_the_reason(suite):
+    graph = Graph(int(suite.env["ROS_DOMAIN_ID"]), "tethernet_test_set")
+    try:
+        capture, sim = graph.params("/capture_node"), graph.params("/sim_node")
+        actuator = graph.params("/actuator_node")
+        # out of range: refused (rclpy checks the descriptor's range first)
+        for client, name, value in ((capture, "horizon", -5.0), (sim, "publish_rate", 0.0),
+                                    (capture, "settle_time", float("nan")),
+                                    (actuator, "noise.sigma_speed", -0.1),
+                                    (actuator, "noise.sigma_closing", float("inf")),
+                                    (sim, "min_state_subscribers", -1)):
+            r = set_param(graph, client, name, value)
+            assert not r.successful and name in r.reason, (name, r.reason)
+        # rules a range cannot say: the node's callback, "<name>: got X; must be ..."
+        for client, name, value, must in (
+                (capture, "compression", "lz4", "must be one of 'zstd', 'none'"),
+                (capture, "sim_config", "[1, 2]", "must be a JSON object"),
+                (capture, "sim_config", '{"dt": -1.0}', "config field 'dt': got -1.0; must be"),
+                (capture, "sim_config", '{"horizon_s": 5}', "config field 'horizon_s': unknown"),
+                (capture, "bag_dir", "", "must be a non-empty string")):
+            r = set_param(graph, client, name, value)
+            assert not r.successful, (name, value)
+            assert r.reason.startswith(f"{name}: ") and must in r.reason, r.reason
+        # read at start-up only: read-only
+        r = set_param(graph, sim, "queue_depth", 10)
+        assert not r.successful and "read-only" in r.reason
+        # the values stayed; a good value is taken (and the node still serves)
+        got = graph.result(capture.get_parameters(["horizon", "compression"])).values
+        assert (got[0].double_value, got[1].string_value) == (120.0, "zstd")
+        assert set_param(graph, capture, "horizon", 100.0).successful
+        assert set_param(graph, capture, "horizon", 120.0).successful
+        assert set_param(graph, sim, "publish_rate", 10.0).successful
+    finally:
+        graph.close()
+
+
+@pytest.mark.parametrize("node,name,value,line", [
+    ("capture_node", "horizon", -5.0, "horizon: got -5.0; must be a horizon in [1, 3600] s"),
+    ("capture_node", "sim_config", '{"dt": 1.0}', "sim_config: config field 'dt': got 1.0"),
+    ("sim_node", "publish_rate", 0.0, "publish_rate: got 0.0; must be a number in [0.01, 1000] Hz"),
+])
+def test_bad_start_up_value_stops_the_node_with_one_line(tmp_path, node, name, value, line):
+    import yaml
+
+    params = tmp_path / "params.yaml"
+    params.write_text(yaml.safe_dump({f"/{node}": {"ros__parameters": {name: value}}}))
+    env = {**suite_environment(), "ROS_DOMAIN_ID": str(private_domain(13))}
+    out = subprocess.run(
+        [sys.executable, "-m", f"tethernet_ros.ros.nodes.{node}", "--ros-args",
+         "--params-file", str(PARAMS), "--params-file", str(params)],
+        capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+    assert out.returncode == 1, out.stderr
+    assert f"{node}: error: {line}" in out.stderr, out.stderr
+    assert "Traceback" not in out.stderr

@@ -43,6 +43,8 @@ TOPIC_TYPES: dict[str, str] = {
 }
 
 SERVICE = "/tethernet/run_capture"
+#: the Capture action (tethernet_msgs/action/Capture): one capture with feedback and cancel
+ACTION = "/tethernet/capture"
 #: std_srvs/Trigger of the capture node: success when it sees every node of the suite
 READY_SERVICE = "/tethernet/suite_ready"
 

@@ -62,7 +62,9 @@ def run_node(factory, args=None, threads: int = 1) -> int:
             import traceback
 
             traceback.print_exc()
-        name = node.get_name() if node is not None else getattr(factory, "__name__", "node")
+        # before the node exists: the NODE name of its module (nodes/<node>.py)
+        name = node.get_name() if node is not None else \
+            getattr(sys.modules.get(getattr(factory, "__module__", "")), "NODE", "node")
         print(f"{name}: error: {exc}", file=sys.stderr)
         status = 1
     finally:

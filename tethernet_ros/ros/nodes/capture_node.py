@@ -24,7 +24,6 @@ far as it got and left ``.partial`` with the reason in its INCOMPLETE marker.
 """
 from __future__ import annotations
 
-import json
 import threading
 import time
 from pathlib import Path
@@ -39,7 +38,8 @@ from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
 from ..names import ALWAYS_RECORDED, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
     TOPIC_TYPES, TOPICS, recorder_name
-from ..parameters import declare, param, topic
+from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
+    topic
 from ..qos import command_qos, state_qos
 from ..recording import Episode, msg_class
 from ..results import compare_results
@@ -60,8 +60,7 @@ class CaptureNode(Node):
         from tethernet_msgs.srv import RunCapture
 
         super().__init__(NODE)
-        declare(self, NODE)
-        self.sim_config()  # a bad configuration stops the node at start, with one line
+        declare(self, NODE, check=sim_config_problem)  # bad values stop the node, one line
         for type_name in TOPIC_TYPES.values():
             message_definition(type_name)   # every type is known to the bag writer (cached)
         self.episode: Episode | None = None
@@ -79,11 +78,8 @@ class CaptureNode(Node):
         recorder = recorder_name(self.get_name())
         self.recorder = rclpy.create_node(recorder, context=self.context,
                                           cli_args=["--ros-args", "-r", f"__node:={recorder}"])
+        describe_builtin(self.recorder)
         self.recorded = list(param(self, "record_topics"))
-        unknown = [k for k in self.recorded if k not in TOPIC_TYPES]
-        if unknown:
-            raise ValueError(f"parameter 'record_topics': unknown {unknown}; allowed "
-                             f"{list(TOPIC_TYPES)}")
         for key in ALWAYS_RECORDED:               # replay needs them; the recorder counts them
             if key not in self.recorded:
                 self.recorded.append(key)
@@ -118,16 +114,8 @@ class CaptureNode(Node):
 
     # -- configuration ---------------------------------------------------------------------
     def sim_config(self) -> SimConfig:
-        text = param(self, "sim_config") or "{}"
-        try:
-            data = json.loads(text)
-        except ValueError:
-            raise ConfigError(f"parameter 'sim_config': not a JSON object: {text!r}") from None
-        if not isinstance(data, dict):
-            raise ConfigError("parameter 'sim_config': must be a JSON object of SimConfig fields")
-        data["settle_time"] = float(param(self, "settle_time"))
-        data["horizon"] = float(param(self, "horizon"))
-        return SimConfig.from_dict(data)
+        """The episodes' SimConfig (parameters sim_config, settle_time, horizon)."""
+        return sim_config_of({k: param(self, k) for k in ("sim_config", "settle_time", "horizon")})
 
     # -- recorder --------------------------------------------------------------------------
     def on_raw(self, key: str, data: bytes) -> None:

@@ -141,7 +141,7 @@ class SimNode(Node):
             return
         dt = scenario.dt
         rate = float(self._p("publish_rate"))
-        every = max(1, int(round(1.0 / (rate * dt)))) if rate > 0 else 1 << 62
+        every = max(1, int(round(1.0 / (rate * dt))))     # rate > 0: parameters.py
         mrate = float(self._p("marker_rate"))
         marker_every = max(1, int(round(1.0 / (mrate * dt)))) if mrate > 0 else 0
         rtf = float(self._p("real_time_factor"))
