@@ -238,3 +238,50 @@ def test_bad_start_up_value_stops_the_node_with_one_line(tmp_path, node, name, v
     assert out.returncode == 1, out.stderr
     assert f"{node}: error: {line}" in out.stderr, out.stderr
     assert "Traceback" not in out.stderr
+
+
+# --- a nominal episode: the request's seed, latched results --------------------------------------
+@pytest.fixture(scope="module")
+def nominal_seed7(suite):
+    """A nominal request that names seed 7 (noise settings and bag left out)."""
+    from tethernet_msgs.srv import RunCapture
+
+    from tethernet_ros.ros.conversions import design_msg
+
+    req = RunCapture.Request(design=design_msg(DESIGN), seed=7, nominal=True)
+    return suite.call(req, timeout=300)
+
+
+def test_nominal_request_reports_its_seed(nominal_seed7):
+    from tethernet_ros.core.episode import run_episode
+
+    resp = nominal_seed7
+    assert resp.error == "", resp.error
+    r = resp.result
+    assert r.nominal and r.seed == 7                 # the request's seed, not 0
+    ref = run_episode(DESIGN, None, CONFIG, record_trace=False)     # nominal: no noise
+    assert r.settled_cqi == ref.settled_cqi and r.completion_time == ref.completion_time
+
+
+def test_result_and_verdict_are_latched(suite, nominal_seed7):
+    """A subscriber created after the episode ended (``ros2 topic echo`` started late)
+    still gets the last result and the last verdict."""
+    from tethernet_msgs.msg import EpisodeResult
+
+    from tethernet_ros.ros.names import LATCHED, TOPICS
+    from tethernet_ros.ros.qos import latched_qos
+
+    episode = nominal_seed7.result.episode_id
+    assert episode
+    graph = Graph(int(suite.env["ROS_DOMAIN_ID"]), "tethernet_test_late")
+    try:
+        got: dict[str, list] = {key: [] for key in LATCHED}
+        for key in LATCHED:
+            graph.node.create_subscription(EpisodeResult, TOPICS[key], got[key].append,
+                                           latched_qos())
+        assert graph.spin_until(lambda: all(got.values()), timeout=20), got
+        for key in LATCHED:
+            assert [m.episode_id for m in got[key]] == [episode], key
+            assert got[key][0].seed == 7 and got[key][0].nominal
+    finally:
+        graph.close()

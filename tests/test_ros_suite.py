@@ -218,9 +218,14 @@ def test_bag_with_mcap_ros2_and_metadata(captured):
     listed = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
     assert counts == listed
     assert sum(counts.values()) == meta["message_count"]
+    latched = {TOPICS["result"], TOPICS["verdict"]}
     for t in meta["topics_with_message_count"]:
         tm = t["topic_metadata"]
         assert tm["type_description_hash"] == type_hash(tm["type"])   # rosidl's (test_ros_bags)
+        # offered QoS: `ros2 bag play` latches the result and the verdict again
+        (qos,) = tm["offered_qos_profiles"]
+        assert qos["durability"] == ("transient_local" if tm["name"] in latched else "volatile")
+        assert (qos["depth"] == 1) == (tm["name"] in latched)
 
 
 # --- replay ------------------------------------------------------------------------------------

@@ -30,15 +30,17 @@ CHUNK_BYTES = 256 * 1024
 _INFINITE = (9223372036, 854775807)
 
 
-def qos_profile(depth: int = 10, reliable: bool = True):
-    """The QoS a topic is offered with (keep-last ``depth``, volatile), as rosbags' Qos."""
+def qos_profile(depth: int = 10, reliable: bool = True, latched: bool = False):
+    """The QoS a topic is offered with (keep-last ``depth``; transient-local if
+    ``latched``, else volatile), as rosbags' Qos (``ros2 bag play`` offers it again)."""
     from rosbags.interfaces import (Qos, QosDurability, QosHistory, QosLiveliness,
                                     QosReliability, QosTime)
 
     forever = QosTime(*_INFINITE)
     return Qos(history=QosHistory.KEEP_LAST, depth=int(depth),
                reliability=QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
-               durability=QosDurability.VOLATILE, deadline=forever, lifespan=forever,
+               durability=QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE,
+               deadline=forever, lifespan=forever,
                liveliness=QosLiveliness.AUTOMATIC, liveliness_lease_duration=forever,
                avoid_ros_namespace_conventions=False)
 

@@ -146,8 +146,9 @@ def config_from_json(text: str, field: str = "sim_config_json") -> SimConfig:
 
 
 def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseModel | None,
-              config: SimConfig, wall_time: float):
-    """EpisodeSetup of one episode (seed None: nominal), stamped with ``wall_time`` (s)."""
+              config: SimConfig, wall_time: float, nominal: bool | None = None):
+    """EpisodeSetup of one episode, stamped with ``wall_time`` (s).  nominal: no noise
+    (default: when ``seed`` is None); a nominal setup still carries the request's seed."""
     from tethernet_msgs.msg import EpisodeSetup
 
     m = EpisodeSetup()
@@ -155,7 +156,7 @@ def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseMod
     m.header.frame_id = "chaser"
     m.episode_id = episode_id
     m.design = design_msg(design)
-    m.nominal = seed is None
+    m.nominal = seed is None if nominal is None else bool(nominal)
     m.seed = 0 if seed is None else int(seed)
     m.noise = noise_settings_msg(noise)
     m.sim_config_json = json.dumps(config_overrides(config), sort_keys=True)
@@ -168,7 +169,8 @@ def setup_from_msg(m) -> Setup:
     return Setup(episode_id=m.episode_id, design=design_from_msg(m.design),
                  seed=None if nominal else int(m.seed), noise_scales=scales,
                  orientation_axis=axis, config=config_from_json(m.sim_config_json),
-                 stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)))
+                 stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)),
+                 request_seed=int(m.seed))
 
 
 # --- actuator commands --------------------------------------------------------------------
@@ -307,14 +309,18 @@ def terms_from_msg(m) -> dict[str, float]:
 
 
 def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
-                       sim_time: float = 0.0):
+                       sim_time: float = 0.0, seed: int | None = None):
+    """EpisodeResult message of a core result, stamped with ``sim_time`` (s).  seed: the
+    seed to report (the request's, also when nominal); default the result's (0 if None)."""
     from tethernet_msgs.msg import EpisodeResult as ResultMsg
 
     m = ResultMsg()
     set_time(m.header.stamp, sim_time)
     m.header.frame_id = "chaser"
     m.episode_id = episode_id
-    m.seed = 0 if result.seed is None else int(result.seed)
+    if seed is None:
+        seed = 0 if result.seed is None else result.seed
+    m.seed = int(seed)
     m.nominal = bool(nominal)
     m.success = bool(result.success)
     m.settled_cqi = float(result.settled_cqi)

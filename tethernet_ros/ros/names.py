@@ -57,5 +57,7 @@ REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metric
 #: topics every bag holds, whatever ``record_topics`` says (replay needs them)
 ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",
                    "result", "verdict")
+#: latched topics (transient-local, depth 1, qos.latched_qos): a late subscriber gets the last
+LATCHED = ("result", "verdict")
 #: recorded topics whose messages carry the simulated time of a state (header stamp)
 STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")

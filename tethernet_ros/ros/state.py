@@ -15,7 +15,8 @@ from ..core.noise import NoiseModel
 class Setup:
     """An EpisodeSetup in core terms.  seed None: nominal (no noise); noise_scales: scale
     factor per noise source (None when nominal); stamp: (sec, nanosec) of the setup's
-    header, the key that ties the actuator's commands to it."""
+    header, the key that ties the actuator's commands to it; request_seed: the seed the
+    request gave, which results report (also when nominal, where no noise is drawn)."""
 
     episode_id: str
     design: Design
@@ -24,6 +25,7 @@ class Setup:
     orientation_axis: str
     config: SimConfig
     stamp: tuple[int, int]
+    request_seed: int = 0
 
     def noise_model(self, spreads: dict | None = None) -> NoiseModel | None:
         """The episode's NoiseModel with the given spreads (None when nominal)."""

@@ -36,11 +36,11 @@ from ...bags import BagError, BagWriter, message_definition, qos_profile
 from ...bags.naming import capture_name, check_name, taken
 from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
-from ..names import ALWAYS_RECORDED, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
+from ..names import ALWAYS_RECORDED, LATCHED, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
     TOPIC_TYPES, TOPICS, recorder_name
 from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
     topic
-from ..qos import command_qos, state_qos
+from ..qos import LATCHED_DEPTH, command_qos, state_qos
 from ..recording import Episode, msg_class
 from ..results import compare_results
 from ..runner import run_node
@@ -130,7 +130,9 @@ class CaptureNode(Node):
                                         "tethernet.seed": "nominal" if seed is None else str(seed)})
         for key in self.recorded:
             depth = STATE_DEPTH if key in STATE_TOPICS else 10
-            writer.add_topic(self.topic_names[key], TOPIC_TYPES[key], qos_profile(depth))
+            writer.add_topic(self.topic_names[key], TOPIC_TYPES[key],
+                             qos_profile(LATCHED_DEPTH if key in LATCHED else depth,
+                                         latched=key in LATCHED))
         return writer
 
     # -- service ---------------------------------------------------------------------------
@@ -183,8 +185,8 @@ class CaptureNode(Node):
         self.episode = ep
         log.info(f"episode {episode_id!r}: {'nominal' if seed is None else f'seed {seed}'}")
         try:
-            self.pub_setup.publish(conv.setup_msg(episode_id, design, seed, noise, config,
-                                                  time.time()))
+            self.pub_setup.publish(conv.setup_msg(episode_id, design, int(request.seed), noise,
+                                                  config, time.time(), nominal=request.nominal))
             error = self.wait_for_end(ep)
         except Exception as exc:  # noqa: BLE001 - reported in the response
             error = f"{type(exc).__name__}: {exc}"

@@ -4,7 +4,7 @@ Subscribes  EpisodeSetup, LaunchCommand, ClosingCommand (to build the episode's
             StateMirror: same design, commands and configuration as the simulation) and
             NetState.
 Publishes   CaptureMetrics for every state, and the monitor's EpisodeResult (topic
-            ``verdict``) when a state ends the episode: settle time after closing, the
+            ``verdict``, latched) when a state ends the episode: settle time after closing, the
             horizon, or divergence.
 
 All numbers come from the core through :class:`tethernet_ros.monitoring.StateMirror`
@@ -19,7 +19,7 @@ from rclpy.node import Node
 from ...monitoring import StateMirror
 from .. import conversions as conv
 from ..parameters import declare, param, topic
-from ..qos import command_qos, state_qos
+from ..qos import command_qos, latched_qos, state_qos
 from ..runner import run_node
 from ..state import CommandBuffer
 
@@ -39,7 +39,7 @@ class MonitorNode(Node):
         self.frame_id = param(self, "frame_id")
         self._warm_up()
         self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"), sq)
-        self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), cq)
+        self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), latched_qos())
         self.setup = None
         self.commands = CommandBuffer()
         self.mirror: StateMirror | None = None
@@ -123,7 +123,8 @@ class MonitorNode(Node):
         self.decided = True
         result.seed = self.setup.seed
         self.pub_verdict.publish(conv.episode_result_msg(result, self.setup.episode_id,
-                                                            self.setup.seed is None, msg.sim_time))
+                                                            self.setup.seed is None, msg.sim_time,
+                                                            seed=self.setup.request_seed))
         self.get_logger().info(f"episode {self.setup.episode_id!r}: verdict "
                                f"{'success' if result.success else 'failure'} at t = {msg.sim_time:.3f} s")
 

@@ -5,7 +5,7 @@ Subscribes  EpisodeSetup (design, seed, configuration), LaunchCommand and Closin
             header stamp).
 Publishes   NetState, target PoseStamped and /clock every ``publish_rate`` Hz of simulated
             time, a MarkerArray every ``marker_rate`` Hz, and at the end the simulation's
-            EpisodeResult.
+            EpisodeResult (latched: transient-local, depth 1).
 
 The episode is run by the core's ``run_simulation`` on a CaptureSimulation whose
 ``advance`` publishes at the publish steps on the way; ``advance`` is chunking-invariant,
@@ -32,7 +32,7 @@ from .. import conversions as conv
 from ..markers import MarkerBuilder
 from ..parameters import declare, param, topic
 from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
-from ..qos import command_qos, state_qos
+from ..qos import command_qos, latched_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
 from ..state import CommandBuffer, state_arrays
 
@@ -66,7 +66,7 @@ class SimNode(Node):
         self.pub_pose = node.create_publisher(PoseStamped, t("target_pose"), sq)
         self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
         self.pub_markers = node.create_publisher(MarkerArray, t("markers"), sq)
-        self.pub_result = node.create_publisher(EpisodeResult, t("result"), cq)
+        self.pub_result = node.create_publisher(EpisodeResult, t("result"), latched_qos())
         self._lock = threading.Lock()
         self._setup = None
         self._commands = CommandBuffer()
@@ -197,7 +197,8 @@ class SimNode(Node):
             if marker_every and marker_step[0] != sim.step:
                 publish_markers(sim)                        # ... and its markers
             result.seed = setup.seed
-            msg = conv.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time)
+            msg = conv.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time,
+                                          seed=setup.request_seed)
             outbox.put(lambda: self.pub_result.publish(msg))
             outbox.drain()
         except EpisodeAborted:
