@@ -5,6 +5,8 @@ state) and the default model on the implicit method.
 
 Regenerate only when a model itself is meant to change:
     python tests/test_kernel_golden.py --write [spec-text|default]
+Each file records the machine facts it was made with ("machine"); the episodes are the
+same on every x86-64 machine with the pinned wheels (test_reproducibility.py).
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.episode import CaptureSimulation, run_simulation
 from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros.core.scenario import scenario_for
+from tethernet_ros.machine import machine_facts
 
 DATA = os.path.join(os.path.dirname(__file__), "data")
 #: golden file per model
@@ -55,7 +58,7 @@ def run_case(model, name, seed) -> dict:
 
 def _golden(model):
     with open(GOLDEN[model]) as f:
-        return {(d["design"], d["seed"]): d for d in json.load(f)}
+        return {(d["design"], d["seed"]): d for d in json.load(f)["episodes"]}
 
 
 @pytest.mark.parametrize("model", sorted(GOLDEN))
@@ -66,7 +69,7 @@ def test_episode_bit_identical_to_golden(model, name, seed):
 
 if __name__ == "__main__" and "--write" in sys.argv:
     for model in [m for m in GOLDEN if m in sys.argv] or list(GOLDEN):
-        out = [run_case(model, n, s) for n, s in CASES]
+        out = {"machine": machine_facts(), "episodes": [run_case(model, n, s) for n, s in CASES]}
         with open(GOLDEN[model], "w") as f:
             json.dump(out, f, indent=1)
         print(f"wrote {GOLDEN[model]}")

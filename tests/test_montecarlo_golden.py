@@ -20,6 +20,7 @@ from tethernet_ros import montecarlo as mc
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.noise import NoiseModel
+from tethernet_ros.machine import machine_facts
 
 GOLDEN = os.path.join(os.path.dirname(__file__), "data", "golden_montecarlo.json")
 SAMPLES, BASE_SEED = 4, 2
@@ -54,7 +55,7 @@ def run_golden() -> list:
 
 def test_montecarlo_runs_bit_identical_to_golden():
     with open(GOLDEN) as f:
-        golden = json.load(f)
+        golden = json.load(f)["runs"]
     got = run_golden()
     assert [g["label"] for g in got] == [g["label"] for g in golden]
     for run, want in zip(got, golden):
@@ -66,5 +67,5 @@ def test_montecarlo_runs_bit_identical_to_golden():
 
 if __name__ == "__main__" and "--write" in sys.argv:
     with open(GOLDEN, "w") as f:
-        json.dump(run_golden(), f, indent=1)
+        json.dump({"machine": machine_facts(), "runs": run_golden()}, f, indent=1)
     print("wrote", GOLDEN)

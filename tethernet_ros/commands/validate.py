@@ -109,6 +109,7 @@ class Progress:
 def run(args) -> int:
     from ..core.design import load_design
     from ..montecarlo import RunSpec, evaluate_many
+    from ..montecarlo.results_file import ResultsFile
 
     check_run_arguments(args)
     model = noise_model_from_args(args)
@@ -153,6 +154,7 @@ def run(args) -> int:
         for r, path in results:
             d = r.to_dict(with_samples=args.per_sample)
             d["results_file"] = str(path)
+            d["machines"] = ResultsFile(path).machine_counts({r.key})
             out.append(d)
         print_json(out if args.reference else out[0])
         return 0
@@ -165,6 +167,10 @@ def run(args) -> int:
           + (f" ({reused} samples read back from the results file)" if reused else ""))
     print("P*_s interval: Wilson 95 %; mean T over all samples (closing never triggered: T = horizon)")
     print("results file" + ("s" if len(files) > 1 else "") + ": " + ", ".join(files))
+    for f in files:
+        line = ResultsFile(f).machine_summary({r.key for r, p in results if str(p) == f})
+        if line:
+            print(line)
     if errs:
         print(f"WARNING: {errs} sample(s) failed with a worker error (see the results file)",
               file=sys.stderr)

@@ -129,7 +129,7 @@ class SimConfig:
     density: float = 1390.0
     grid_nodes: int = 17
     stowed_fraction: float = 0.05
-    corner_thread_meshes: float = 2.0 ** 0.5
+    corner_thread_meshes: float = math.sqrt(2.0)
     tether_segments: int = 10
     closing_indices: tuple[int, ...] = (0, 5, 11, 16)
     lock_distance: float = 1.0

@@ -126,7 +126,7 @@ class Design:
 def system_mass(m_c: float, L_n: float, r_n: float, density: float = THREAD_DENSITY) -> float:
     """m_a = 38 L_n pi r_n^2 rho + 4 m_c (kg): 17 + 17 grid threads of length L_n plus an
     allowance for the closing thread, and four corner masses (docs/model.md §8)."""
-    return 38.0 * L_n * math.pi * r_n**2 * density + 4.0 * m_c
+    return 38.0 * L_n * math.pi * (r_n * r_n) * density + 4.0 * m_c
 
 
 def _allowed_text(field: str) -> str:

@@ -42,14 +42,14 @@ class Threads:
     @classmethod
     def of(cls, design: Design, cfg: SimConfig) -> Threads:
         meshes = cfg.grid_nodes - 1
-        area = math.pi * design.r_n**2
+        area = math.pi * (design.r_n * design.r_n)
         l0 = design.L_n / meshes
         r_tether = cfg.tether_radius if cfg.tether_radius > 0 else design.r_n
         return cls(mesh=l0, lin_density=cfg.density * area, EA=cfg.young_modulus * area,
                    stowed_mesh=cfg.stowed_fraction * design.L_n / meshes,
                    corner_length=cfg.corner_thread_meshes * l0, tether_radius=r_tether,
-                   tether_lin_density=cfg.density * math.pi * r_tether**2,
-                   tether_EA=cfg.young_modulus * math.pi * r_tether**2)
+                   tether_lin_density=cfg.density * math.pi * (r_tether * r_tether),
+                   tether_EA=cfg.young_modulus * math.pi * (r_tether * r_tether))
 
 
 def stowed_state(lay: BodyLayout, th: Threads, corner_velocities: np.ndarray, cfg: SimConfig):
@@ -195,7 +195,7 @@ def contact_spheres(cfg: SimConfig, lay: BodyLayout, th: Threads, mass: np.ndarr
     e_corner = materials.effective_modulus(cfg.target_young_modulus, cfg.target_poisson_ratio,
                                            cfg.target_young_modulus, cfg.target_poisson_ratio)
     if cfg.contact_model == "frequency":
-        k_contact = mass * cfg.contact_frequency**2
+        k_contact = mass * (cfg.contact_frequency * cfg.contact_frequency)
         c_contact = 2.0 * cfg.contact_damping_ratio * mass * cfg.contact_frequency
     else:
         k_contact = materials.hertz_linear_stiffness(radius, e_net, cfg.hertz_penetration,

@@ -9,8 +9,8 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.linalg import eigh_tridiagonal
+
+from . import detmath
 
 
 def element_damping(k, m_a, m_b, zeta):
@@ -36,7 +36,9 @@ def first_axial_frequency(node_mass, k, min_omega: float = 10.0) -> float:
     the nodes of a row through its x-threads (and the y motion of a column through its
     y-threads, the same problem transposed): a free-free chain per row and column.  The
     rigid-body modes (omega = 0) are skipped: the result is the smallest frequency above
-    ``min_omega``.
+    ``min_omega``.  The eigenvalues come from :func:`smallest_eigenvalue_above` (bisection
+    in IEEE arithmetic), not from LAPACK, whose last bits depend on the CPU kernel that
+    OpenBLAS picks (docs/model.md §13).
     """
     m = np.asarray(node_mass, dtype=float)
     best = math.inf
@@ -47,12 +49,53 @@ def first_axial_frequency(node_mass, k, min_omega: float = 10.0) -> float:
             deg[0] = deg[-1] = k
             diag = deg / row
             off = -k / np.sqrt(row[:-1] * row[1:])
-            lam = eigh_tridiagonal(diag, off, eigvals_only=True)
-            om = np.sqrt(np.clip(lam, 0.0, None))
-            om = om[om > min_omega]
-            if om.size:
-                best = min(best, float(om.min()))
+            lam = smallest_eigenvalue_above(diag, off, min_omega * min_omega)
+            if lam is not None:
+                best = min(best, math.sqrt(lam))
     return best
+
+
+def _count_below(diag, off, x: float) -> int:
+    """Number of eigenvalues < x of the symmetric tridiagonal matrix (diag, off): the
+    negative pivots of the LDL^T factorisation of T - x I (Sturm sequence)."""
+    count = 0
+    q = 1.0
+    for i in range(len(diag)):
+        e2 = off[i - 1] * off[i - 1] if i > 0 else 0.0
+        q = (diag[i] - x) - (e2 / q if i > 0 else 0.0)
+        if q == 0.0:
+            q = -1e-300   # a zero pivot: x is an eigenvalue; count it as below
+        if q < 0.0:
+            count += 1
+    return count
+
+
+def smallest_eigenvalue_above(diag, off, threshold: float) -> float | None:
+    """The smallest eigenvalue > ``threshold`` of the symmetric tridiagonal matrix with
+    diagonal ``diag`` (n,) and off-diagonal ``off`` (n - 1,), or None if there is none.
+
+    Bisection on the Sturm count within the Gershgorin interval, to adjacent binary64
+    numbers: only IEEE operations, so the same bits on every machine."""
+    d = [float(v) for v in diag]
+    e = [float(v) for v in off]
+    n = len(d)
+    k = _count_below(d, e, threshold)
+    if k >= n:
+        return None
+    lo, hi = threshold, threshold
+    for i in range(n):
+        r = (abs(e[i - 1]) if i > 0 else 0.0) + (abs(e[i]) if i < n - 1 else 0.0)
+        hi = max(hi, d[i] + r)
+    hi = hi + abs(hi) * 1e-15 + 1e-300
+    # invariant: count_below(lo) <= k < count_below(hi)
+    while True:
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            return hi
+        if _count_below(d, e, mid) > k:
+            hi = mid
+        else:
+            lo = mid
 
 
 def effective_modulus(e1: float, nu1: float, e2: float, nu2: float) -> float:
@@ -70,29 +113,40 @@ def hertz_linear_stiffness(radius, e_star: float, penetration: float, divisor: f
 
 
 def sphere_radius(mass, density: float):
-    """Radius (m) of a solid sphere of ``mass`` (kg) at ``density`` (kg/m^3)."""
-    return np.cbrt(3.0 * np.asarray(mass, dtype=float) / (4.0 * math.pi * density))
+    """Radius (m) of a solid sphere of ``mass`` (kg) at ``density`` (kg/m^3); the cube
+    root is :func:`detmath.cbrt_array` (numpy's cbrt takes CPU-dependent SIMD paths)."""
+    return detmath.cbrt_array(3.0 * np.asarray(mass, dtype=float) / (4.0 * math.pi * density))
 
 
 @lru_cache(maxsize=64)
 def kelvin_voigt_restitution(zeta: float) -> float:
     """Coefficient of restitution of a linear Kelvin-Voigt contact of damping ratio zeta
-    that never pulls: the body leaves when k delta + c d(delta)/dt falls to zero (or the
-    penetration ends), not when delta returns to 0.  In the time of the undamped contact
-    (omega t), delta'' + 2 zeta delta' + delta = 0 from delta = 0, delta' = 1; e = -delta'
-    at release.  0.732 at zeta = 0.106, 0.135 at zeta = 1; it depends on zeta only."""
-    if zeta < 0:
+    that never pulls: the body leaves when k delta + c d(delta)/dt falls to zero, not when
+    delta returns to 0.  In the time of the undamped contact (omega t),
+    delta'' + 2 zeta delta' + delta = 0 from delta = 0, delta' = 1, and e = -delta' at
+    release.  Closed form (Schwager and Poschel, Granular Matter 9, 465-469, 2007), with
+    omega_d = sqrt(1 - zeta^2):
+
+      zeta < 1:  e = exp(-zeta t_r),  t_r = (pi - atan2(2 zeta omega_d, 1 - 2 zeta^2)) / omega_d
+      zeta = 1:  e = exp(-2)
+      zeta > 1:  e = (r+ / r-) exp(r+ t_r),  t_r = ln(r- / r+) / s,  r+- = -zeta +- s,
+                 s = sqrt(zeta^2 - 1)
+
+    0.732 at zeta = 0.106, 0.135 at zeta = 1; it depends on zeta only.  Evaluated at 96
+    bits (:mod:`detmath`) and rounded once: the same bits on every machine."""
+    if not zeta >= 0:
         raise ValueError(f"zeta: got {zeta}; must be >= 0")
-
-    def rhs(_t, y):
-        return [y[1], -(y[0] + 2.0 * zeta * y[1])]
-
-    def released(_t, y):
-        return min(y[0] + 2.0 * zeta * y[1], y[0])
-
-    released.terminal = True
-    released.direction = -1
-    sol = solve_ivp(rhs, (1e-9, 100.0), [1e-9, 1.0], events=released, rtol=1e-10, atol=1e-13)
-    if not sol.t_events[0].size:
-        return 0.0
-    return float(max(-sol.y_events[0][0][1], 0.0))
+    m = detmath.WIDE
+    z = m.mpf(float(zeta))
+    if z == 0:
+        return 1.0
+    if z < 1:
+        wd = m.sqrt(1 - z * z)
+        t_r = (m.pi - m.atan2(2 * z * wd, 1 - 2 * z * z)) / wd
+        return float(m.exp(-z * t_r))
+    if z == 1:
+        return float(m.exp(-2))
+    s_ = m.sqrt(z * z - 1)
+    rp, rm = -z + s_, -z - s_
+    t_r = m.log(rm / rp) / s_
+    return float(rp / rm * m.exp(rp * t_r))

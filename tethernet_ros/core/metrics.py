@@ -41,15 +41,36 @@ def hull_volume_area(points: np.ndarray) -> tuple[float, float]:
         return float(hull.volume), float(hull.area)
     except QhullError:
         pass
-    centred = pts - pts.mean(axis=0)
-    _, sv, vt = np.linalg.svd(centred, full_matrices=False)
-    if sv.size < 2 or sv[1] <= 1e-12 * max(sv[0], 1e-300):
-        return 0.0, 0.0
-    planar = centred @ vt[:2].T
+    return 0.0, 2.0 * planar_hull_area(pts)
+
+
+def planar_hull_area(points: np.ndarray) -> float:
+    """Area (m^2) of the convex hull of (N, 3) points that lie in a plane (0 if they are
+    collinear).  The plane is spanned from the centroid by the point farthest from it (a)
+    and the point farthest from the line along a (b), in IEEE operations only: no SVD,
+    whose last bits depend on the CPU kernel of the linear-algebra library."""
+    pts = np.asarray(points, dtype=float)
+    c = pts - pts.mean(axis=0)
+    d2 = c[:, 0] * c[:, 0] + c[:, 1] * c[:, 1] + c[:, 2] * c[:, 2]
+    a = c[int(np.argmax(d2))]
+    la = float(np.sqrt(d2.max()))
+    if la == 0.0:
+        return 0.0
+    e1 = a / la
+    cr = np.cross(e1, c)
+    n2 = cr[:, 0] * cr[:, 0] + cr[:, 1] * cr[:, 1] + cr[:, 2] * cr[:, 2]
+    if not float(np.sqrt(n2.max())) > 1e-12 * la:
+        return 0.0
+    n = cr[int(np.argmax(n2))]
+    n = n / float(np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]))
+    e2 = np.cross(n, e1)
+    planar = np.empty((len(c), 2))
+    planar[:, 0] = c[:, 0] * e1[0] + c[:, 1] * e1[1] + c[:, 2] * e1[2]
+    planar[:, 1] = c[:, 0] * e2[0] + c[:, 1] * e2[1] + c[:, 2] * e2[2]
     try:
-        return 0.0, 2.0 * float(ConvexHull(planar).volume)  # 2D 'volume' is the area
+        return float(ConvexHull(planar).volume)  # 2D 'volume' is the area
     except QhullError:
-        return 0.0, 0.0
+        return 0.0
 
 
 def centre_of_mass(positions: np.ndarray, masses: np.ndarray) -> np.ndarray:
@@ -68,7 +89,8 @@ def capture_quality_index(net_positions: np.ndarray, net_masses: np.ndarray,
     target's centres of mass, L_c the smallest distance from the target's CoM to its surface.
     """
     vol, area = hull_volume_area(net_positions)
-    q = float(np.linalg.norm(centre_of_mass(net_positions, net_masses) - np.asarray(target_com)))
+    d = centre_of_mass(net_positions, net_masses) - np.asarray(target_com, dtype=float)
+    q = math.sqrt(float(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
     tv = 0.1 * abs(vol - target_volume) / target_volume
     ta = 0.1 * abs(area - target_area) / target_area
     td = 0.8 * q / target_min_surface_distance

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, asdict, replace
 
 import numpy as np
 
+from . import detmath
+
 #: Noise sources whose spread can be scaled (sensitivity study).
 NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing")
 
@@ -115,16 +117,17 @@ class NoiseModel:
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise NoiseError(f"noise field 'seed': got {seed!r}; must be an integer >= 0")
         rng = np.random.default_rng(int(seed))
-        z_dist = rng.standard_normal()
-        z_orient = rng.standard_normal()
+        normal = detmath.standard_normal
+        z_dist = normal(rng)
+        z_orient = normal(rng)
         z_speed = np.empty(4)
         z_polar = np.empty(4)
         u_azim = np.empty(4)
         for i in range(4):
-            z_speed[i] = rng.standard_normal()
-            z_polar[i] = rng.standard_normal()
+            z_speed[i] = normal(rng)
+            z_polar[i] = normal(rng)
             u_azim[i] = rng.random()
-        z_close = rng.standard_normal()
+        z_close = normal(rng)
         s = self.scales
         deg = math.pi / 180.0
         return NoiseSample(
@@ -158,15 +161,16 @@ def perturb_velocity(v: np.ndarray, speed_offset: float, polar: float, azimuth: 
     e1 is the unit vector of z_hat x u (x_hat if u is along z).
     """
     v = np.asarray(v, dtype=float)
-    speed = float(np.linalg.norm(v))
+    speed = detmath.norm3(v)
     if speed == 0.0:
         return v.copy()
     u = v / speed
     e1 = np.cross([0.0, 0.0, 1.0], u)
-    n1 = np.linalg.norm(e1)
+    n1 = detmath.norm3(e1)
     e1 = e1 / n1 if n1 > 1e-12 else np.array([1.0, 0.0, 0.0])
     e2 = np.cross(u, e1)
-    d = math.cos(polar) * u + math.sin(polar) * (math.cos(azimuth) * e1 + math.sin(azimuth) * e2)
+    d = (detmath.cos(polar) * u
+         + detmath.sin(polar) * (detmath.cos(azimuth) * e1 + detmath.sin(azimuth) * e2))
     return (speed + speed_offset) * d
 
 

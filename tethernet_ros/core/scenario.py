@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import detmath
 from . import kernel as kn
 from .config import SimConfig
 from .design import Design
@@ -60,8 +61,8 @@ def world_for(design: Design, sample: NoiseSample | None) -> World:
 def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
     """Unit quaternion (w, x, y, z) of a rotation by ``angle`` (rad) about x/y/z."""
     q = np.zeros(4)
-    q[0] = math.cos(angle / 2)
-    q[{"x": 1, "y": 2, "z": 3}[axis]] = math.sin(angle / 2)
+    q[0] = detmath.cos(angle / 2)
+    q[{"x": 1, "y": 2, "z": 3}[axis]] = detmath.sin(angle / 2)
     return q
 
 
@@ -176,7 +177,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]),
             quat=rotation_quaternion(world.rotation, world.rotation_axis),
-            vel=np.zeros(3), omega=np.zeros(3), inertia=target.inertia.copy(),
+            vel=np.zeros(3), omega=np.zeros(3), ang_mom=np.zeros(3), inertia=target.inertia.copy(),
             cyl=target.cylinder(), verts=verts, offsets=offsets),
         params=kernel_params(design, cfg, th, actions.closing_displacement,
                              target.bounding_radius, omega_1),

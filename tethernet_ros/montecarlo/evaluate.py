@@ -16,6 +16,7 @@ time; they stay in the results file and are reused by a later run).
 """
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -85,6 +86,16 @@ def _check_counts(n_samples, base_seed) -> None:
         raise ValueError(f"seed: got {base_seed!r}; must be an integer >= 0")
 
 
+def _load(rfile: ResultsFile, keys: set) -> dict:
+    """The file's records; one line on stderr if the samples of ``keys`` in it were made
+    on another machine (:meth:`ResultsFile.machine_summary`)."""
+    known = rfile.load()
+    line = rfile.machine_summary(keys)
+    if line:
+        print(f"resuming: {line}", file=sys.stderr)
+    return known
+
+
 def _usable(rec: SampleResult | None, record_trace: bool) -> bool:
     """A stored record stands for a new run of its sample (it has a trace if one is asked)."""
     return rec is not None and (rec.trace is not None or not record_trace)
@@ -120,7 +131,7 @@ def evaluate_many(specs: Sequence[RunSpec], n_samples: int, base_seed: int = 0,
     keys = [run_key(s.design, s.noise_model, s.config) for s in specs]
     seeds = [sample_seed(base_seed, i) for i in range(n_samples)]
     rfile = ResultsFile(results_path) if results_path is not None else None
-    known = rfile.load() if (rfile is not None and resume) else {}
+    known = _load(rfile, set(keys)) if (rfile is not None and resume) else {}
 
     done: dict[tuple[str, int], SampleResult] = {}
     tasks: list[EpisodeTask] = []
@@ -175,7 +186,7 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     t0 = time.perf_counter()
     key = run_key(spec.design, spec.noise_model, spec.config)
     rfile = ResultsFile(results_path) if results_path is not None else None
-    known = rfile.load() if (rfile is not None and resume) else {}
+    known = _load(rfile, {key}) if (rfile is not None and resume) else {}
     extras = {key: _extra(spec)}
     samples: list[SampleResult] = []   # samples 0..len-1, in index order
     from_file: set[int] = set()

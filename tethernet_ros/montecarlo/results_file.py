@@ -8,6 +8,11 @@ same file skips every (key, seed) already there, so a killed run resumes where i
 and a larger run reuses a smaller one.  A partial last line (the process was killed while
 writing it) is cut off before appending.  One file may hold records of several designs;
 records with another key are kept and ignored.
+
+Every record names the machine that computed it (``machine_id``), and the file holds one
+line ``{"machine_id": ..., "machine": {...}}`` with the facts of each such machine
+(:mod:`tethernet_ros.machine`): a file written on several machines says so when it is
+read (:meth:`ResultsFile.machine_summary`).
 """
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ from pathlib import Path
 
 from optimizer.jsonio import json_clean
 
+from .. import machine
 from .records import SampleResult
 
 
@@ -26,6 +32,9 @@ class ResultsFile:
     def __init__(self, path: str | Path):
         self.path = Path(path)
         self.skipped_lines = 0
+        #: machine_id -> facts of the machines named in the file (filled by records())
+        self.machines: dict[str, dict] = {}
+        self._machine_written = False
 
     def records(self):
         """Every readable record in file order, as (the raw JSON object, its
@@ -40,6 +49,9 @@ class ResultsFile:
                     continue
                 try:
                     rec = json.loads(line)
+                    if "machine" in rec and "seed" not in rec:
+                        self.machines[str(rec["machine_id"])] = dict(rec["machine"])
+                        continue
                     r = SampleResult.from_record(rec)
                 except (ValueError, TypeError, KeyError):
                     self.skipped_lines += 1
@@ -85,12 +97,58 @@ class ResultsFile:
 
     def append(self, result: SampleResult, extra: dict | None = None) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        facts = machine.machine_facts()
+        mid = machine.machine_id(facts)
+        lines = []
+        if not self._machine_written:
+            if self.path.exists():
+                for _ in self.records():
+                    pass
+            if mid not in self.machines:
+                lines.append({"machine_id": mid, "machine": facts})
+                self.machines[mid] = facts
+            self._machine_written = True
         rec = result.to_record()
         if extra:
             rec.update(json_clean(extra))
-        line = json.dumps(rec, separators=(",", ":"), allow_nan=False)
+        rec["machine_id"] = mid
+        lines.append(rec)
+        text = "".join(json.dumps(r, separators=(",", ":"), allow_nan=False) + "\n"
+                       for r in lines)
         with self.path.open("a", encoding="utf-8") as f:
-            f.write(line + "\n")
+            f.write(text)
             f.flush()
             os.fsync(f.fileno())
+
+    def machine_counts(self, keys=None) -> dict[str, int]:
+        """Samples per machine_id (records of ``keys`` only, if given; records written
+        before machine ids existed count under '')."""
+        counts: dict[str, int] = {}
+        for rec, r in self.records():
+            if keys is None or r.key in keys:
+                mid = str(rec.get("machine_id", ""))
+                counts[mid] = counts.get(mid, 0) + 1
+        return counts
+
+    def machine_summary(self, keys=None) -> str:
+        """One line when the samples (of ``keys``) come from another machine than this one
+        or from several machines, saying how their facts differ; '' otherwise."""
+        counts = self.machine_counts(keys)
+        here = machine.machine_facts()
+        mid_here = machine.machine_id(here)
+        others = {m: n for m, n in counts.items() if m != mid_here}
+        if not others:
+            return ""
+        parts = []
+        for m, n in sorted(others.items()):
+            facts = self.machines.get(m)
+            if not facts:
+                parts.append(f"{n} sample(s) from a machine whose facts were not recorded")
+                continue
+            diff = machine.describe(facts, here, "them")
+            parts.append(f"{n} sample(s) from machine {m} ({diff or 'same facts'})")
+        mixed = len(counts) > 1
+        head = (f"{self.path}: samples from {len(counts)} machines" if mixed
+                else f"{self.path}: samples from another machine")
+        return head + ": " + "; ".join(parts)
 

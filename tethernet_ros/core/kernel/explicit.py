@@ -93,7 +93,8 @@ def advance(n_steps, bodies, grid, links, ring, tether, target, prm, ev, diag):
         if ev[E_TETHER_LOCKED] == 0:
             pay_out_tether(wk, tether)
         # 5. integrate the target (free rigid body)
-        integrate_target(target, wk.R, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt, prm.tgt_inv_mass)
+        integrate_target(target, wk.R, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt, prm.tgt_inv_mass,
+                         wk.Lb)
         # 6. drawstring locks: one-sided distance joints
         if ev[E_CLOSING_ACTIVE] == 1 and prm.lock_model == LOCK_RATCHET:
             project_locks(wk, bodies.w, ring)

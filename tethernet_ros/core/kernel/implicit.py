@@ -102,7 +102,7 @@ def advance_implicit(n_steps, bodies, grid, links, ring, tether, target, prm, ev
             pay_out_tether(wk, tether)
         # the target moves under them
         integrate_target(target, wk.R, px / h, py / h, pz / h, lx / h, ly / h, lz / h, h,
-                         prm.tgt_inv_mass)
+                         prm.tgt_inv_mass, wk.Lb)
         ev[E_STEP] += 1
         closing_events(wk, bodies, links, ring, tether, target, prm, ev, trigger_mass)
     store_work(wk, bodies)

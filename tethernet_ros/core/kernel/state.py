@@ -41,10 +41,12 @@ Drawstring = namedtuple("Drawstring", "pairs locked maxdist lock_step trigger_no
 Tether = namedtuple("Tether", "nodes links centre winch")
 
 #: The target as a free rigid body: pos (3,) (m), quat (4,) (w, x, y, z) body -> world,
-#: vel (3,) (m/s), omega (3,) world angular velocity (rad/s), inertia (3,) principal
+#: vel (3,) (m/s), omega (3,) world angular velocity (rad/s), ang_mom (3,) world angular
+#: momentum about the CoM (kg m^2/s; the rotation's state, omega follows from it and quat),
+#: inertia (3,) principal
 #: moments (kg m^2); collision primitives: cyl [axial centre, half length, radius] (m) and
 #: the meridional polygons of any extra solid of revolution (verts (K, 2), offsets (P + 1,)).
-TargetBody = namedtuple("TargetBody", "pos quat vel omega inertia cyl verts offsets")
+TargetBody = namedtuple("TargetBody", "pos quat vel omega ang_mom inertia cyl verts offsets")
 
 #: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair;
 #: close_threshold: z(net CoM) - z(target CoM) that starts closing (m); lock_dist (m);

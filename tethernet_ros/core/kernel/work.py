@@ -12,9 +12,10 @@ from numba import njit
 #: thread before each row's first node (x-thread (i, j) at i (n + 1) + j + 1); UX..UZ
 #: ((n + 1) n,): the same for y-threads (y-thread (i, j) at (i + 1) n + j); EF (M, 3): force
 #: of each other thread on its first end; pair_f (P, 3), acc (3, N), lock_count (N,),
-#: lock_sep (P, 3): drawstring scratch; R (3, 3): the target's rotation matrix.
+#: lock_sep (P, 3): drawstring scratch; R (3, 3): the target's rotation matrix; Lb (3,):
+#: the target's body angular momentum (kg m^2/s) within its step.
 Work = namedtuple("Work", "X Y Z VX VY VZ FX FY FZ HX HY HZ UX UY UZ EF pair_f acc lock_count "
-                          "lock_sep R")
+                          "lock_sep R Lb")
 
 
 @njit(cache=True, inline='always')
@@ -29,7 +30,7 @@ def make_work(bodies, grid, links, ring):
               np.zeros(ng * (ng + 1)), np.zeros(ng * (ng + 1)), np.zeros(ng * (ng + 1)),
               np.zeros((ng + 1) * ng), np.zeros((ng + 1) * ng), np.zeros((ng + 1) * ng),
               np.zeros((max(n_links, 1), 3)), np.zeros((max(n_pairs, 1), 3)), np.zeros((3, N)),
-              np.zeros(N), np.zeros((n_pairs, 3)), np.empty((3, 3)))
+              np.zeros(N), np.zeros((n_pairs, 3)), np.empty((3, 3)), np.zeros(3))
     x = bodies.x
     v = bodies.v
     for i in range(N):
