@@ -246,8 +246,20 @@ def test_replay_good_bag(captured, reference):
     assert rep["matches_result"] and rep["matches_verdict"]
     assert rep["metrics_max_cqi_diff"] == 0.0 and rep["metrics_locked_pair_mismatches"] == 0
     assert rep["recomputed"]["settled_cqi"] == reference.settled_cqi
+    # every message of the bag is accounted for: read, or skipped (types replay does not use)
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    listed = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
+    assert rep["messages"] == meta["message_count"] == rep["messages_read"] + rep["messages_skipped"]
+    assert {t: c["read"] + c["skipped"] for t, c in rep["topics"].items()} == listed
+    skipped = {t for t, c in rep["topics"].items() if c["skipped"]}
+    assert skipped == {TOPICS["markers"], TOPICS["target_pose"], TOPICS["clock"]}
+    assert all(rep["topics"][t]["read"] == 0 for t in skipped)
+    assert rep["topics"][TOPICS["markers"]]["skipped"] == listed[TOPICS["markers"]] > 0
     text = run_cli("replay", str(bag))
     assert text.returncode == 0 and "replay agrees with the recorded result" in text.stdout
+    assert (f"{rep['messages']} messages ({rep['messages_read']} read, {rep['messages_skipped']} "
+            "skipped") in text.stdout
+    assert f"{listed[TOPICS['markers']]} skipped" in text.stdout
 
 
 def test_replay_truncated_and_corrupted(captured, tmp_path):

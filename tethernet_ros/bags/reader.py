@@ -31,6 +31,8 @@ class BagContents:
     mcap_path: Path | None
     messages: list[BagMessage] = field(default_factory=list)
     topics: dict[str, str] = field(default_factory=dict)         # topic -> type
+    skipped: dict[str, int] = field(default_factory=dict)        # topic -> messages passed
+                                                                  # over (topics / types filter)
     metadata: dict | None = None                                  # metadata.yaml content
     marker: str | None = None                                     # INCOMPLETE text
     problems: list[str] = field(default_factory=list)
@@ -48,10 +50,16 @@ class BagContents:
         return [m for m in self.messages if m.topic == topic]
 
     def counts(self) -> dict[str, int]:
+        """Messages read per topic (every topic of the file, 0 where none was read)."""
         out: dict[str, int] = {t: 0 for t in self.topics}
         for m in self.messages:
             out[m.topic] = out.get(m.topic, 0) + 1
         return out
+
+    @property
+    def n_skipped(self) -> int:
+        """Messages in the part of the file read that the filter passed over."""
+        return sum(self.skipped.values())
 
 
 def _locate(path: Path) -> tuple[Path | None, dict | None, str | None, list[str]]:
@@ -95,8 +103,9 @@ def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
     """Read a bag (folder or .mcap file) record by record.
 
     Returns every message (of ``topics`` and ``types``, if given) that can be read before the first
-    damage, decoded with mcap-ros2-support if ``decode``; a truncated or corrupted file
-    ends the reading at the damage, which ``problems`` describes.  Raises BagError only if
+    damage, decoded with mcap-ros2-support if ``decode``; the messages the filter passed
+    over are counted per topic in ``skipped``.  A truncated or corrupted file ends the
+    reading at the damage, which ``problems`` describes.  Raises BagError only if
     there is no bag at ``path``.
     """
     from mcap.records import Channel, Footer, Message, Schema
@@ -128,10 +137,10 @@ def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
                     ch = channels.get(rec.channel_id)
                     if ch is None:
                         raise ValueError(f"message on unknown channel {rec.channel_id}")
-                    if topics is not None and ch.topic not in topics:
-                        continue
                     sch = schemas.get(ch.schema_id)
-                    if types is not None and (sch is None or sch.name not in types):
+                    if (topics is not None and ch.topic not in topics) or \
+                            (types is not None and (sch is None or sch.name not in types)):
+                        out.skipped[ch.topic] = out.skipped.get(ch.topic, 0) + 1
                         continue
                     bm = BagMessage(ch.topic, sch.name if sch else "", rec.log_time,
                                     rec.publish_time, bytes(rec.data))
@@ -162,9 +171,9 @@ def read_bag(path: str | os.PathLike, topics: set[str] | None = None,
                                 "the damage")
     if out.reached_end and metadata is not None:
         expected = metadata.get("message_count")
-        if topics is None and types is None and expected is not None and expected != len(out.messages):
-            problems.append(f"metadata.yaml lists {expected} messages, the file holds "
-                            f"{len(out.messages)}")
+        held = len(out.messages) + out.n_skipped
+        if expected is not None and expected != held:
+            problems.append(f"metadata.yaml lists {expected} messages, the file holds {held}")
     return out
 
 

@@ -4,8 +4,9 @@ The bag's EpisodeSetup, LaunchCommand and ClosingCommand rebuild the episode's s
 (:class:`~tethernet_ros.monitoring.StateMirror`); every recorded NetState is loaded into it
 and the core's CQI function, locked-pair count and verdict rules are applied.  The
 results are compared with the recorded CaptureMetrics, the simulation's EpisodeResult and
-the monitor's verdict.  A truncated or corrupted bag is read up to the damage and the
-damage is reported; exit status 1 then, or on any disagreement; 0 when everything
+the monitor's verdict.  Messages of the types replay does not use (markers, target
+poses, /clock) are skipped and counted per topic.  A truncated or corrupted bag is read up
+to the damage and the damage is reported; exit status 1 then, or on any disagreement; 0 when everything
 matches.  No ROS installation is needed (mcap + mcap-ros2-support decode the bag).
 """
 from __future__ import annotations
@@ -24,6 +25,9 @@ CLOSING = "tethernet_msgs/msg/ClosingCommand"
 STATE = "tethernet_msgs/msg/NetState"
 METRICS = "tethernet_msgs/msg/CaptureMetrics"
 RESULT = "tethernet_msgs/msg/EpisodeResult"
+#: the types replay reads; the messages of every other type (markers, poses, /clock) are
+#: skipped and counted per topic
+USED = {SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT}
 
 
 def add_arguments(p):
@@ -51,11 +55,16 @@ def replay(path) -> dict:
     from ..ros.results import compare_results
     from ..ros.state import stamp_key
 
-    contents = read_bag(path, types={SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT})
+    contents = read_bag(path, types=USED)
     problems = list(contents.problems)
+    read = contents.counts()
     report = {"bag": str(contents.path), "complete": contents.complete, "problems": problems,
-              "messages_read": len(contents.messages), "bytes_read": contents.bytes_read,
-              "file_size": contents.file_size}
+              "messages": len(contents.messages) + contents.n_skipped,
+              "messages_read": len(contents.messages), "messages_skipped": contents.n_skipped,
+              "topics": {t: {"type": contents.topics[t], "read": read.get(t, 0),
+                             "skipped": contents.skipped.get(t, 0)}
+                         for t in sorted(contents.topics)},
+              "bytes_read": contents.bytes_read, "file_size": contents.file_size}
 
     def decoded(msgtype, topic=None):
         return [m.msg for m in contents.messages
@@ -160,8 +169,14 @@ def run(args) -> int:
                 f"{'nominal' if report.get('seed') is None else report['seed']})"
                 if "episode_id" in report else "")]
     lines.append(f"  bag               {'complete' if report['complete'] else 'INCOMPLETE / DAMAGED'}: "
-                 f"{report['messages_read']} messages read, {report['bytes_read']} of "
-                 f"{report['file_size']} bytes")
+                 f"{report['messages']} messages ({report['messages_read']} read, "
+                 f"{report['messages_skipped']} skipped: not used by replay), "
+                 f"{report['bytes_read']} of {report['file_size']} bytes")
+    width = max((len(t) for t in report["topics"]), default=0)
+    for name, t in report["topics"].items():
+        counts = [f"{t['read']} read"] if t["read"] or not t["skipped"] else []
+        counts += [f"{t['skipped']} skipped"] if t["skipped"] else []
+        lines.append(f"    {name:<{width}}  {', '.join(counts)}")
     if "first_time" in report:
         lines.append(f"  states            {report['states']} (t = {report['first_time']:.3f} .. "
                      f"{report['last_time']:.3f} s)")
