@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .geometry import local_sdf
-from .state import CONTACT_FREQUENCY
+from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -51,12 +51,18 @@ def contact_forces(wk, bodies, target, prm, diag):
         rz = Z[i] - tgt_pos[2]
         rb = bound + radius[i]
         if rx * rx + ry * ry + rz * rz > rb * rb:
+            if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+                bodies.contact_mask[i] = CONTACT_ON
             continue
         bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
         by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
         bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
         sd, nbx, nby, nbz = local_sdf(bx, by, bz, target.cyl, target.verts, target.offsets)
         delta = radius[i] - sd
+        if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+            if delta > 0.0:
+                continue
+            bodies.contact_mask[i] = CONTACT_ON
         if delta <= 0.0:
             continue
         if delta > diag.max_penetration[0]:

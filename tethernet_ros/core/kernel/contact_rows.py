@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .geometry import local_sdf
-from .state import CONTACT_FREQUENCY
+from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 
 #: Contact rows are made for bodies within h |v_rel| + SPECULATIVE_MARGIN (m) of the target:
 #: the threads and the drawstring can whip a light node to more than 20 m/s within a step,
@@ -46,12 +46,19 @@ def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
         rb = prm.tgt_bound + reach
         if rx * rx + ry * ry + rz * rz > rb * rb:
             sol.contact_pn[i] = 0.0
+            if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+                bodies.contact_mask[i] = CONTACT_ON
             continue
         bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
         by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
         bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
         sd, nbx, nby, nbz = local_sdf(bx, by, bz, target.cyl, target.verts, target.offsets)
         C = sd - bodies.radius[i]                  # gap (m), negative: penetration
+        if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+            if C < 0.0:
+                sol.contact_pn[i] = 0.0
+                continue
+            bodies.contact_mask[i] = CONTACT_ON
         if C > h * vrel + SPECULATIVE_MARGIN:
             sol.contact_pn[i] = 0.0
             continue

@@ -70,6 +70,12 @@ CONTACT_FREQUENCY, CONTACT_HERTZ = 0, 1
 DAMPING_ELEMENT, DAMPING_STIFFNESS = 0, 1
 LOCK_RATCHET, LOCK_LATCH = 0, 1
 
+#: Bodies.contact_mask values: no contact with the target; contact; contact once the body
+#: is outside the target (a tether mass that joins the dynamics when the winch locks may lie
+#: inside the stage, on the straight line the paid-out tether was drawn on: it must leave
+#: the stage before it can touch it, else its penetration would expel it explosively).
+CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE = 0, 1, 2
+
 #: Integer episode state, one int64 array; these name its slots.
 E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
 N_EV = 5

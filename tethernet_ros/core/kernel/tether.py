@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .state import DAMPING_ELEMENT
+from .state import CONTACT_ONCE_OUTSIDE, DAMPING_ELEMENT
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -33,7 +33,8 @@ def pay_out_tether(wk, tether):
 def lock_tether(wk, bodies, links, tether, prm):
     """The winch locks the paid-out length: the tether segments get their rest lengths
     (the current ones), stiffness E A / l and damping, and the tether's lumped masses
-    (one segment of tether each) join the dynamics."""
+    (one segment of tether each) join the dynamics; each collides with the target once it
+    is outside it (``CONTACT_ONCE_OUTSIDE``)."""
     X, Y, Z = wk.X, wk.Y, wk.Z
     mass = bodies.mass
     for k in range(tether.links.shape[0]):
@@ -49,7 +50,7 @@ def lock_tether(wk, bodies, links, tether, prm):
         t = tether.nodes[k]
         mass[t] = prm.tether_lin_density * links.rest[tether.links[0]]
         bodies.w[t] = 1.0 / mass[t]
-        bodies.contact_mask[t] = 1
+        bodies.contact_mask[t] = CONTACT_ONCE_OUTSIDE
         bodies.c_contact[t] = 2.0 * prm.zeta_contact * np.sqrt(bodies.k_contact[t] * mass[t])
     for k in range(tether.links.shape[0]):
         m = tether.links[k]
