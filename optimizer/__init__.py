@@ -6,6 +6,7 @@ A module per job, in reading order:
 ================  =========================================================================
 problem.py        the interface a simulator implements (DesignProblem, ReliabilityEstimate)
 run.py            a whole run of Case 1 or 2: run directory, resume, validation, reports
+settings.py       the run's settings: defaults, allowed ranges, checks (RunSettings)
 cases.py          the two cases of docs/optimizer.md §1
 evaluator.py      one design -> one observation (P*_s = k/n with its binomial variance)
 sequential.py     stop sampling a design as soon as its feasibility is decided

@@ -1,103 +1,177 @@
-"""The end of a run: choose the best design, validate it with fresh samples, build the
-summary and write the results table and the convergence figure."""
+"""The end of a run, a function per job: choose the design and validate it with fresh
+samples (:func:`choose_design`, :class:`Validator`), build the table's rows and the
+summary, write the results table and the convergence figure (:func:`finish_run`)."""
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 from .cases import P_SUCCESS, VALIDATION_RULES, validation_rule_text
 from .report import plot_convergence, write_results
 from .selection import rank_candidates, validation_evidence
 from .sequential import SequentialRule
 
-__all__ = ["finish_run", "meets_requirement", "sampling_counts"]
+__all__ = ["finish_run", "meets_requirement", "sampling_counts", "Validator", "Choice",
+           "choose_design"]
 
 
-def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, min_probability,
-               compare_reference) -> dict:
+def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit) -> dict:
     """The run's summary (see :func:`optimizer.run.run_optimization`); writes
-    results.csv / results.md and convergence.png.  The ranked designs
-    (:func:`optimizer.selection.rank_candidates`) are validated in turn until one meets
-    C_P, at most ``settings["validation_candidates"]`` (default 1) of them, ranked again
-    after each failure with the failed validations as evidence (module docstring of
-    :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
-    first validated.  Every validated design is a row of the table.  ``settings
-    ["validation_rule"]`` says how a validation meets C_P (:func:`meets_requirement`); with
-    ``settings["validation_stop"]`` a validation stops at the failure that decides it
-    misses C_P (:class:`optimizer.sequential.SequentialRule` at the validation's size), its
-    P*_s then over the samples drawn ("stopped" in its dict)."""
-    ranked, rule = rank_candidates(opt, min_probability)
-    best = ranked[0] if ranked else None
-    feasible = [o for o in opt.history if o.feasible]
-    validation = None
-    rows = []
-    val_n = settings["validation_samples"]
-    n_candidates = max(1, int(settings.get("validation_candidates", 1)))
-    v_rule = settings.get("validation_rule", "estimate")
-    # with validation_stop, a validation ends at the failure that decides it misses C_P
-    # (by either rule: a design below C_P by its estimate is below it by its Wilson bound)
-    v_stop = (SequentialRule(val_n, case.p_threshold, stop_when_feasible=False)
-              if val_n and settings.get("validation_stop") else None)
+    results.csv / results.md and convergence.png.
 
-    def validate(x, label):
+    Args:
+        case: the :class:`~optimizer.cases.Case`; opt: the optimiser after the run;
+        stopped: the run was stopped early (nothing is validated);
+        paths: the run's files (:data:`optimizer.run.RUN_FILES`);
+        settings: the run's resolved :class:`~optimizer.settings.RunSettings`;
+        problem: the :class:`~optimizer.problem.DesignProblem`;
+        evaluator: the run's :class:`~optimizer.evaluator.DesignEvaluator` (for the
+            reference design on the optimisation samples);
+        emit: ``emit(event)``, the run's progress events.
+    """
+    validator = Validator(case, problem, settings, paths["validation"], emit)
+    choice = choose_design(case, opt, stopped, settings, validator)
+    rows = _design_rows(case, opt, problem, choice, validator)
+    if settings.compare_reference and not stopped:
+        rows += _reference_rows(case, problem, evaluator, validator, emit)
+    summary = _summary(case, opt, stopped, paths, settings, problem, choice, rows)
+    write_results(paths["results_csv"], paths["results_md"], summary)
+    plot_convergence(paths["convergence"], opt.history, case, choice.best,
+                     choice.validation["p_success"] if choice.validation else None)
+    return summary
+
+
+class Validator:
+    """Validations of a run: ``validator(x, label)`` evaluates design ``x`` on the
+    validation samples (``settings.validation_samples`` of base seed
+    ``settings.validation_seed``, appended to ``results_path``).  With
+    ``settings.validation_stop`` a validation ends at the failure that decides it misses
+    C_P (:class:`~optimizer.sequential.SequentialRule` at the validation's size; by either
+    rule: a design below C_P by its estimate is below it by its Wilson bound), its P*_s
+    then over the samples drawn."""
+
+    def __init__(self, case, problem, settings, results_path, emit):
+        self.case, self.problem, self.settings = case, problem, settings
+        self.results_path, self.emit = results_path, emit
+        self.samples = settings.validation_samples
+        self.rule = settings.validation_rule
+        self.stop = (SequentialRule(self.samples, case.p_threshold, stop_when_feasible=False)
+                     if self.samples and settings.validation_stop else None)
+
+    def __call__(self, x, label: str):
         def prog(done, total):
-            emit({"stage": "validation", "label": label, "done": done, "total": total})
-        return problem.evaluate(x, val_n, settings["validation_seed"], stop=v_stop,
-                                results_path=paths["validation"], label=label, progress=prog)
+            self.emit({"stage": "validation", "label": label, "done": done, "total": total})
+        return self.problem.evaluate(x, self.samples, self.settings.validation_seed,
+                                     stop=self.stop, results_path=self.results_path,
+                                     label=label, progress=prog)
 
-    if best is not None:
-        tried = []
-        vres = None
-        if val_n and not stopped:
-            tried = _validate_in_turn(opt, ranked, min_probability, validate, case,
-                                      n_candidates, v_rule)
-            # the first design that met C_P, if any (the last one tried), else the first
-            best, vres = (tried[-1] if meets_requirement(tried[-1][1], case, v_rule)
-                          else tried[0])
-        if n_candidates > 1:
-            rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}"
-                     f"{validation_rule_text(v_rule)}, the ranking redone after each failure with its "
-                     f"validation in the constraint GP's data ({len(tried)} of at most "
-                     f"{n_candidates} validated)")
-        validation = _validation_dict(vres, case, v_rule, val_n)
-        rows.append(_row(f"best (Case {case.number})", problem.design_dict(best.x), best.info,
-                         validation, evaluation=_index(opt.history, best)))
-        for cand, r in tried:
-            if cand is not best:
-                rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
-                                 "validation", problem.design_dict(cand.x), cand.info,
-                                 _validation_dict(r, case, v_rule, val_n),
-                                 evaluation=_index(opt.history, cand)))
+    def meets(self, result) -> bool:
+        """Whether ``result`` meets C_P by the run's rule (:func:`meets_requirement`)."""
+        return meets_requirement(result, self.case, self.rule)
+
+    def as_dict(self, result) -> dict | None:
+        """A validation result as the summary and the table record it."""
+        return _validation_dict(result, self.case, self.rule, self.samples)
+
+
+@dataclass
+class Choice:
+    """The run's chosen design: ``best`` (an observation of the history, or None),
+    ``result`` (its validation, or None), ``tried`` (every (observation, validation)
+    pair, in the order validated), ``rule`` (the words that say how it was chosen) and
+    ``validation`` (``result`` as a dict)."""
+
+    best: object = None
+    result: object = None
+    tried: list = field(default_factory=list)
+    rule: str = ""
+    validation: dict | None = None
+
+
+def choose_design(case, opt, stopped, settings, validator: Validator) -> Choice:
+    """Rank the designs (:func:`optimizer.selection.rank_candidates`) and validate them in
+    turn until one meets C_P, at most ``settings.validation_candidates`` of them, ranked
+    again after each failure with the failed validations as evidence (module docstring of
+    :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
+    first validated.  Nothing is validated when the run was stopped or has no validation
+    samples."""
+    ranked, rule = rank_candidates(opt, settings.min_probability)
+    choice = Choice(best=ranked[0] if ranked else None, rule=rule)
+    if choice.best is None:
+        return choice
+    n_candidates = settings.validation_candidates
+    if validator.samples and not stopped:
+        choice.tried = _validate_in_turn(opt, ranked, settings.min_probability, validator,
+                                         case, n_candidates, validator.rule)
+        # the first design that met C_P, if any (the last one tried), else the first
+        last = choice.tried[-1]
+        choice.best, choice.result = last if validator.meets(last[1]) else choice.tried[0]
+    if n_candidates > 1:
+        choice.rule += (f"; validated in turn until one met C_P = {case.p_threshold:g}"
+                        f"{validation_rule_text(validator.rule)}, the ranking redone after "
+                        f"each failure with its validation in the constraint GP's data "
+                        f"({len(choice.tried)} of at most {n_candidates} validated)")
+    choice.validation = validator.as_dict(choice.result)
+    return choice
+
+
+def _design_rows(case, opt, problem, choice: Choice, validator: Validator) -> list[dict]:
+    """The table's rows of the chosen design and of every design that failed validation."""
+    if choice.best is None:
+        return []
+    rows = [_row(f"best (Case {case.number})", problem.design_dict(choice.best.x),
+                 choice.best.info, choice.validation,
+                 evaluation=_index(opt.history, choice.best))]
+    for cand, r in choice.tried:
+        if cand is not choice.best:
+            rows.append(_row(f"candidate (evaluation {_index(opt.history, cand)}), failed "
+                             "validation", problem.design_dict(cand.x), cand.info,
+                             validator.as_dict(r), evaluation=_index(opt.history, cand)))
+    return rows
+
+
+def _reference_rows(case, problem, evaluator, validator: Validator, emit) -> list[dict]:
+    """The row of the case's reference design (docs/model.md §9) on the optimisation
+    samples and validated; none when the problem has no such design."""
     ref = problem.reference_design(case.reference) if case.reference else None
-    if compare_reference and not stopped and ref is not None:
-        emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
-              "total": evaluator.samples})
-        r = evaluator.estimate(ref, label=case.reference)
-        info = {"successes": r.successes, "samples": r.n_samples, "p_success": r.p_success,
-                "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
-                "mean_completion_time": r.mean_completion_time}
-        vref = _validation_dict(validate(ref, case.reference) if val_n else None, case,
-                                v_rule, val_n)
-        rows.append(_row(f"reference {case.reference} (docs/model.md §9)", problem.design_dict(ref), info,
-                         vref, evaluation=None))
+    if ref is None:
+        return []
+    emit({"stage": "validation", "label": f"reference {case.reference}", "done": 0,
+          "total": evaluator.samples})
+    r = evaluator.estimate(ref, label=case.reference)
+    info = {"successes": r.successes, "samples": r.n_samples, "p_success": r.p_success,
+            "ci_low": r.ci_low, "ci_high": r.ci_high, "mass": r.mass,
+            "mean_completion_time": r.mean_completion_time}
+    vref = validator.as_dict(validator(ref, case.reference) if validator.samples else None)
+    return [_row(f"reference {case.reference} (docs/model.md §9)", problem.design_dict(ref),
+                 info, vref, evaluation=None)]
 
+
+def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows) -> dict:
+    """The run's summary dict (summary.json, less the timings)."""
+    best = choice.best
     summary = {
         "case": case.name, "case_number": case.number, "problem": case.describe(),
         "p_threshold": case.p_threshold,
         "status": "stopped" if stopped else "complete",
         "evaluations": len(opt.history), "seed_points": opt.n_initial,
-        "iterations": opt.n_iterations, "samples": settings["samples"],
-        "sample_seed": settings["sample_seed"], "seed": settings["seed"],
-        "feasible_evaluations": len(feasible), "selection_rule": rule,
+        "iterations": opt.n_iterations, "samples": settings.samples,
+        "sample_seed": settings.sample_seed, "seed": settings.seed,
+        "feasible_evaluations": sum(1 for o in opt.history if o.feasible),
+        "selection_rule": choice.rule,
         "objective_name": case.objective, "objective_unit": case.objective_unit,
         "best_design": None, "best_vector": None, "best_evaluation": None,
         "best_objective": None, "p_success": None, "p_success_ci": None, "successes": None,
-        "mass": None, "mean_completion_time": None, "validation": validation,
+        "mass": None, "mean_completion_time": None, "validation": choice.validation,
         "table": rows, "run_dir": str(paths["settings"].parent),
         "files": {k: str(v) for k, v in paths.items()}, "backend": problem.describe(),
         "variables": list(problem.variable_names),
         "published": ({"design": case.reference, **po} if case.reference and
                       (po := problem.published_outcome(case.reference)) else None),
-        **sampling_counts(opt.history, settings["samples"], settings["sequential"]),
-        "validation_candidates": n_candidates, "validation_rule": v_rule,
-        "validation_samples": val_n, "validation_stop": bool(settings.get("validation_stop")),
+        **sampling_counts(opt.history, settings.samples, settings.sequential),
+        "validation_candidates": settings.validation_candidates,
+        "validation_rule": settings.validation_rule,
+        "validation_samples": settings.validation_samples,
+        "validation_stop": bool(settings.validation_stop),
     }
     if best is not None:
         summary.update({
@@ -108,9 +182,6 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit, mi
             "mass": best.info.get("mass"),
             "mean_completion_time": best.info.get("mean_completion_time"),
         })
-    write_results(paths["results_csv"], paths["results_md"], summary)
-    plot_convergence(paths["convergence"], opt.history, case, best,
-                     validation["p_success"] if validation else None)
     return summary
 
 

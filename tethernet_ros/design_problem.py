@@ -85,8 +85,10 @@ def optimize_design(case, *, backend: montecarlo.EpisodeBackend | None = None,
     """:func:`optimizer.run.run_optimization` of ``case`` on a :class:`SimulatorProblem`.
 
     backend: None -> a process pool on all cores, closed at the end (a given backend stays
-    open).  run_options: the other arguments of ``run_optimization`` (iterations,
-    seed_points, samples, run_dir, resume, validation_samples, seeds, sequential, ...).
+    open).  run_options: the other arguments of ``run_optimization``: ``settings`` (an
+    :class:`optimizer.settings.RunSettings`) or its fields one by one (iterations,
+    seed_points, samples, validation_samples, seeds, sequential, ...), run_dir, resume,
+    progress, callback.
     Returns the run's summary.
     """
     own = backend is None

@@ -17,6 +17,8 @@ import sys
 import time
 from pathlib import Path
 
+from optimizer.settings import RunSettings, SettingError
+
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
                      backend_from_args, check_backend_arguments, config_from_args,
                      noise_model_from_args, print_json)
@@ -30,21 +32,27 @@ def add_arguments(p):
     p.add_argument("--case", default=None, choices=("mass", "time"),
                    help="mass: minimise m_a s.t. P*_s >= 0.98 (Case 1); time: minimise mean T "
                         "s.t. P*_s >= 0.98 and m_a <= 15 kg (Case 2)")
-    p.add_argument("--iterations", type=int, default=200, metavar="N",
-                   help="model-based iterations after the seed points (default 200)")
-    p.add_argument("--seed-points", type=int, default=50, metavar="K",
-                   help="space-filling seed designs (default 50)")
-    p.add_argument("--samples", type=int, default=100, metavar="M",
-                   help="Monte Carlo samples per design during optimisation (default 100)")
-    p.add_argument("--validation-samples", type=int, default=1000, metavar="V",
-                   help="fresh samples to validate the best design with (default 1000; 0: none)")
-    p.add_argument("--validation-candidates", type=int, default=1, metavar="K",
+    d = RunSettings()       # the defaults' one home: optimizer/settings.py
+    p.add_argument("--iterations", type=int, default=d.iterations, metavar="N",
+                   help=f"model-based iterations after the seed points (default {d.iterations})")
+    p.add_argument("--seed-points", type=int, default=d.seed_points, metavar="K",
+                   help=f"space-filling seed designs (default {d.seed_points})")
+    p.add_argument("--samples", type=int, default=d.samples, metavar="M",
+                   help="Monte Carlo samples per design during optimisation (default "
+                        f"{d.samples})")
+    p.add_argument("--validation-samples", type=int, default=d.validation_samples, metavar="V",
+                   help="fresh samples to validate the best design with (default "
+                        f"{d.validation_samples}; 0: none)")
+    p.add_argument("--validation-candidates", type=int, default=d.validation_candidates,
+                   metavar="K",
                    help="validate the ranked designs in turn until one meets P*_s >= 0.98, at "
                         "most K of them, ranking again after each failure with its validation "
-                        "in the constraint GP's data (default 1: the chosen design only; may "
+                        f"in the constraint GP's data (default {d.validation_candidates}: the "
+                        "chosen design only; may "
                         "change on --resume, which then validates a finished run's further "
                         "candidates)")
-    p.add_argument("--validation-rule", choices=("estimate", "wilson"), default="estimate",
+    p.add_argument("--validation-rule", choices=("estimate", "wilson"),
+                   default=d.validation_rule,
                    help="how a validation meets P*_s >= 0.98: by its estimate (default, the "
                         "source's test) or by the lower end of its Wilson 95 %% interval (may "
                         "change on --resume)")
@@ -72,13 +80,14 @@ def add_arguments(p):
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir (same settings; --iterations and "
                         "--validation-samples may change)")
-    p.add_argument("--seed", type=int, default=0, metavar="S",
-                   help="optimiser seed: seed design, acquisition candidates (default 0)")
-    p.add_argument("--sample-seed", type=int, default=1, metavar="B",
+    p.add_argument("--seed", type=int, default=d.seed, metavar="S",
+                   help=f"optimiser seed: seed design, acquisition candidates (default {d.seed})")
+    p.add_argument("--sample-seed", type=int, default=d.sample_seed, metavar="B",
                    help="Monte Carlo base seed of the optimisation samples, the same for every "
-                        "design (default 1)")
-    p.add_argument("--validation-seed", type=int, default=0, metavar="B",
-                   help="base seed of the validation samples (default 0, as tethernet validate)")
+                        f"design (default {d.sample_seed})")
+    p.add_argument("--validation-seed", type=int, default=d.validation_seed, metavar="B",
+                   help=f"base seed of the validation samples (default {d.validation_seed}, as "
+                        "tethernet validate)")
     p.add_argument("--compare-reference", action="store_true",
                    help="also evaluate and validate the case's reference design "
                         "(mass-min / time-min, docs/model.md §9) for the results table")
@@ -99,28 +108,38 @@ def check_arguments(args) -> None:
     if args.case is None and not (args.status and args.run_dir):
         raise UserError("--case: required (mass or time), except with --status --run-dir DIR")
 
-    for flag, value, low in (("--iterations", args.iterations, 0),
-                             ("--seed-points", args.seed_points, 1),
-                             ("--samples", args.samples, 1),
-                             ("--validation-samples", args.validation_samples, 0),
-                             ("--seed", args.seed, 0), ("--sample-seed", args.sample_seed, 0),
-                             ("--validation-seed", args.validation_seed, 0),
-                             ("--validation-candidates", args.validation_candidates, 1)):
-        if value < low:
-            raise UserError(f"{flag} {value}: must be an integer >= {low}")
+    try:
+        run_settings(args)
+    except SettingError as exc:
+        raise UserError(exc.with_flags()) from None
     check_backend_arguments(args)
     if args.via == "ros" and (args.workers is not None or args.scheduler is not None):
         raise UserError("--via ros runs the episodes through the ROS suite; it cannot be "
                         "combined with --workers or --scheduler")
     if args.keep_bags and args.via != "ros":
         raise UserError("--keep-bags only applies with --via ros")
-    if args.validation_samples and args.validation_seed == args.sample_seed:
-        raise UserError(f"--validation-seed {args.validation_seed}: must differ from "
-                        "--sample-seed (validation samples must be fresh)")
     if args.gp_restarts is not None and args.gp_restarts < 0:
         raise UserError(f"--gp-restarts {args.gp_restarts}: must be an integer >= 0")
     if args.candidates is not None and args.candidates < 1:
         raise UserError(f"--candidates {args.candidates}: must be an integer >= 1")
+
+
+def run_settings(args) -> RunSettings:
+    """The run's :class:`~optimizer.settings.RunSettings` from the command line (checked
+    there: SettingError naming the field and its allowed range)."""
+    options = {}
+    if args.gp_restarts is not None:
+        options["n_restarts_gp"] = args.gp_restarts
+    if args.candidates is not None:
+        options["n_candidates"] = args.candidates
+    return RunSettings(
+        iterations=args.iterations, seed_points=args.seed_points, samples=args.samples,
+        validation_samples=args.validation_samples, seed=args.seed,
+        sample_seed=args.sample_seed, validation_seed=args.validation_seed,
+        validation_candidates=args.validation_candidates,
+        validation_rule=args.validation_rule, validation_stop=args.validation_stop,
+        sequential=not args.full_sampling, compare_reference=args.compare_reference,
+        optimizer_options=options)
 
 
 class OptimizeProgress:
@@ -235,12 +254,6 @@ def run(args) -> int:
     if args.resume and (run_dir / "run.json").exists() and not (run_dir / "checkpoint.json").exists():
         print(f"tethernet optimize: {run_dir} was stopped before its first design finished; "
               "resuming from its samples", file=sys.stderr)
-    options = {}
-    if args.gp_restarts is not None:
-        options["n_restarts_gp"] = args.gp_restarts
-    if args.candidates is not None:
-        options["n_candidates"] = args.candidates
-
     if args.via == "ros":
         from ..ros.backend import RosBackend
 
@@ -252,15 +265,8 @@ def run(args) -> int:
     t0 = time.perf_counter()
     try:
         summary = optimize_design(
-            case, iterations=args.iterations, seed_points=args.seed_points,
-            samples=args.samples, backend=backend, run_dir=run_dir, resume=args.resume,
-            validation_samples=args.validation_samples, config=config, noise_model=model,
-            seed=args.seed, sample_seed=args.sample_seed, validation_seed=args.validation_seed,
-            validation_candidates=args.validation_candidates,
-            validation_rule=args.validation_rule, validation_stop=args.validation_stop,
-            sequential=not args.full_sampling,
-            compare_reference=args.compare_reference,
-            progress=bar, optimizer_options=options)
+            case, settings=run_settings(args), backend=backend, run_dir=run_dir,
+            resume=args.resume, config=config, noise_model=model, progress=bar)
     except (RunError, CheckpointError) as exc:
         raise UserError(str(exc)) from None
     finally:

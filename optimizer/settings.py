@@ -1,0 +1,188 @@
+"""The settings of an optimisation run: their defaults, their allowed ranges and their
+checks, in one place.
+
+:class:`RunSettings` is what a run is asked to do (budget, sample sizes, seeds, sampling,
+validation, selection); it checks every field when built and raises :class:`SettingError`
+(a :class:`RunError`) naming the field and its allowed range.  A run directory records the
+settings in run.json (:meth:`RunSettings.record`); a resumed run must be asked for the same
+ones, except the :data:`MUTABLE` ones.
+
+A field of :data:`NEW_RUN_DEFAULTS` (``validation_stop``) takes ``None``, "as the run
+recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value
+in its run.json, or, if its run.json predates the setting, :data:`RECORDED_DEFAULTS` (what
+runs did before the setting existed).  :meth:`RunSettings.resolved` applies that rule.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+import re
+import types
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from .cases import VALIDATION_RULES
+
+__all__ = ["RunError", "SettingError", "RunSettings", "MUTABLE", "NEW_RUN_DEFAULTS",
+           "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION"]
+
+RUN_FORMAT = "tethernet_ros.optimizer.run"
+RUN_VERSION = 1
+
+#: settings that may differ between a run and its resumption
+MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
+                     "validation_rule", "validation_stop", "compare_reference"})
+#: the value of a ``None`` ("as recorded") setting for a new run
+NEW_RUN_DEFAULTS = {"validation_stop": True}
+#: the value of a setting that a run directory of an older version does not record
+RECORDED_DEFAULTS = {"sequential": False, "validation_rule": "estimate",
+                     "validation_stop": False}
+#: keys of ``optimizer_options`` that the run sets itself
+_RESERVED_OPTIONS = frozenset({"n_initial", "n_iterations", "seed", "cheap_constraint"})
+#: smallest allowed value of each integer setting
+_INT_MINIMUM = {"iterations": 0, "seed_points": 1, "samples": 1, "validation_samples": 0,
+                "seed": 0, "sample_seed": 0, "validation_seed": 0, "validation_candidates": 1}
+
+
+class RunError(ValueError):
+    """A run cannot start or resume as asked (message: one line, says what to do)."""
+
+
+class SettingError(RunError):
+    """A setting outside its allowed range.  ``field``: its name; ``value``: what was
+    given; ``requirement``: what it must be, the words after "must" (other settings named
+    by their field names)."""
+
+    def __init__(self, name: str, value, requirement: str):
+        self.field, self.value, self.requirement = name, value, requirement
+        super().__init__(f"{name}: got {value!r}; must {requirement}")
+
+    def with_flags(self) -> str:
+        """The message with every setting named as its command-line flag
+        (``validation_seed`` -> ``--validation-seed``)."""
+        names = "|".join(sorted(RunSettings.field_names(), key=len, reverse=True))
+
+        def flag(name: str) -> str:
+            return "--" + name.replace("_", "-")
+
+        requirement = re.sub(rf"\b({names})\b", lambda m: flag(m.group(0)), self.requirement)
+        return f"{flag(self.field)} {self.value}: must {requirement}"
+
+
+@dataclass(frozen=True)
+class RunSettings:
+    """What a run does; every field checked (:class:`SettingError`).
+
+    Attributes:
+        iterations: model-based iterations after the seed points (>= 0; the source's
+            setup, docs/optimizer.md §4: 200).
+        seed_points: space-filling seed designs (>= 1; docs/optimizer.md §4: 50).
+        samples: Monte Carlo samples per design during optimisation (>= 1;
+            docs/optimizer.md §2: 100).
+        validation_samples: fresh samples to validate a chosen design with (>= 0; 0: no
+            validation; source: 1000).
+        seed: the optimiser's own seed (seed design, candidates, GP restarts; >= 0).
+        sample_seed: Monte Carlo base seed of the optimisation samples (>= 0), the same for
+            every design (common random numbers).
+        validation_seed: base seed of the validation samples (>= 0); must differ from
+            ``sample_seed`` when there is a validation (fresh samples).
+        validation_candidates: validate the ranked designs in turn until one meets C_P, at
+            most this many (>= 1).
+        validation_rule: how a validation meets C_P, one of
+            :data:`~optimizer.cases.VALIDATION_RULES`.
+        validation_stop: end a failing validation at the failure that decides it, or None
+            (module docstring).
+        sequential: stop sampling a design once its feasibility is decided.
+        min_probability: posterior-feasibility filter of the final choice, in [0, 1], or
+            None (plain observed-feasible rule).
+        compare_reference: also evaluate and validate the case's reference design
+            (docs/model.md §9) with the optimisation and the validation samples.
+        optimizer_options: further :class:`~optimizer.bayesopt.ConstrainedBayesOpt`
+            settings (not ``n_initial``, ``n_iterations``, ``seed``, ``cheap_constraint``);
+            kept as a read-only mapping.
+    """
+
+    iterations: int = 200
+    seed_points: int = 50
+    samples: int = 100
+    validation_samples: int = 1000
+    seed: int = 0
+    sample_seed: int = 1
+    validation_seed: int = 0
+    validation_candidates: int = 1
+    validation_rule: str | None = "estimate"
+    validation_stop: bool | None = None
+    sequential: bool = True
+    min_probability: float | None = 0.5
+    compare_reference: bool = False
+    optimizer_options: Mapping = field(default_factory=dict)
+
+    def __post_init__(self):
+        for name, low in _INT_MINIMUM.items():
+            value = getattr(self, name)
+            if (isinstance(value, bool) or not isinstance(value, numbers.Integral)
+                    or value < low):
+                raise SettingError(name, value, f"be an integer >= {low}")
+            object.__setattr__(self, name, int(value))
+        rule = self.validation_rule
+        if not (rule in VALIDATION_RULES or (rule is None and "validation_rule" in NEW_RUN_DEFAULTS)):
+            raise SettingError("validation_rule", rule, f"be one of {', '.join(VALIDATION_RULES)}")
+        for name in ("validation_stop", "sequential", "compare_reference"):
+            value = getattr(self, name)
+            if not (isinstance(value, bool) or (value is None and name in NEW_RUN_DEFAULTS)):
+                raise SettingError(name, value, "be True or False")
+        p = self.min_probability
+        if p is not None:
+            if (isinstance(p, bool) or not isinstance(p, numbers.Real)
+                    or not (math.isfinite(p) and 0.0 <= p <= 1.0)):
+                raise SettingError("min_probability", p, "be None or a number in [0, 1]")
+            object.__setattr__(self, "min_probability", float(p))
+        if self.validation_samples and self.validation_seed == self.sample_seed:
+            raise SettingError("validation_seed", self.validation_seed,
+                               "differ from sample_seed (a validation draws fresh noise, "
+                               "not the optimisation's)")
+        options = self.optimizer_options
+        if not isinstance(options, Mapping):
+            raise SettingError("optimizer_options", options, "be a mapping")
+        bad = sorted(set(options) & _RESERVED_OPTIONS)
+        if bad:
+            raise SettingError("optimizer_options", dict(options),
+                               f"not set {bad} (they are settings of the run)")
+        object.__setattr__(self, "optimizer_options", types.MappingProxyType(dict(options)))
+
+    def replace(self, **changes) -> RunSettings:
+        """A copy with ``changes`` (checked again)."""
+        return dataclasses.replace(self, **changes)
+
+    def resolved(self, recorded: Mapping | None) -> RunSettings:
+        """The ``None`` settings made definite: from ``recorded`` (a resumed run's
+        run.json; :data:`RECORDED_DEFAULTS` where it lacks them), or from
+        :data:`NEW_RUN_DEFAULTS` when ``recorded`` is None (a new run)."""
+        changes = {}
+        for name, new in NEW_RUN_DEFAULTS.items():
+            if getattr(self, name) is None:
+                changes[name] = (new if recorded is None
+                                 else recorded.get(name, RECORDED_DEFAULTS[name]))
+        return self.replace(**changes) if changes else self
+
+    def record(self, case_name: str, problem_settings: Mapping) -> dict:
+        """The JSON-ready run.json of a run of case ``case_name`` with these settings and
+        the problem's own settings (:meth:`optimizer.problem.DesignProblem.settings`)."""
+        if any(getattr(self, name) is None for name in NEW_RUN_DEFAULTS):
+            raise ValueError("record() needs resolved settings (RunSettings.resolved)")
+        return {"format": RUN_FORMAT, "version": RUN_VERSION, "case": case_name,
+                "iterations": self.iterations, "seed_points": self.seed_points,
+                "samples": self.samples, "validation_samples": self.validation_samples,
+                "seed": self.seed, "sample_seed": self.sample_seed,
+                "validation_seed": self.validation_seed,
+                "validation_candidates": self.validation_candidates,
+                "validation_rule": self.validation_rule,
+                "validation_stop": self.validation_stop, "sequential": self.sequential,
+                **problem_settings, "optimizer_options": dict(self.optimizer_options),
+                "min_probability": self.min_probability,
+                "compare_reference": self.compare_reference}
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in dataclasses.fields(cls))

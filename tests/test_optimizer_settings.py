@@ -1,0 +1,86 @@
+"""The run settings (optimizer/settings.py): one home for the defaults, every field checked
+with an error naming the field and its allowed range, the "as recorded" settings of a
+resumed run, and the command line built on them."""
+import dataclasses
+
+import pytest
+
+from optimizer.run import run_optimization
+from optimizer.settings import (NEW_RUN_DEFAULTS, RECORDED_DEFAULTS, RunError, RunSettings,
+                                SettingError)
+from tethernet_ros import cli
+
+
+@pytest.mark.parametrize("name, value, message", [
+    ("iterations", -1, "iterations: got -1; must be an integer >= 0"),
+    ("seed_points", 0, "seed_points: got 0; must be an integer >= 1"),
+    ("samples", 2.5, "samples: got 2.5; must be an integer >= 1"),
+    ("validation_samples", True, "validation_samples: got True; must be an integer >= 0"),
+    ("seed", -3, "seed: got -3; must be an integer >= 0"),
+    ("sample_seed", "1", "sample_seed: got '1'; must be an integer >= 0"),
+    ("validation_seed", 1, "validation_seed: got 1; must differ from sample_seed"),
+    ("validation_candidates", 0, "validation_candidates: got 0; must be an integer >= 1"),
+    ("validation_rule", "lower", "validation_rule: got 'lower'; must be one of estimate, wilson"),
+    ("validation_stop", "yes", "validation_stop: got 'yes'; must be True or False"),
+    ("sequential", 1, "sequential: got 1; must be True or False"),
+    ("compare_reference", None, "compare_reference: got None; must be True or False"),
+    ("min_probability", 1.5, "min_probability: got 1.5; must be None or a number in [0, 1]"),
+    ("min_probability", float("nan"), "min_probability: got nan; must be None or a number"),
+    ("optimizer_options", [1], "optimizer_options: got [1]; must be a mapping"),
+    ("optimizer_options", {"seed": 3}, "must not set ['seed']"),
+])
+def test_every_field_is_checked(name, value, message):
+    with pytest.raises(SettingError) as err:
+        RunSettings(**{name: value})
+    assert err.value.field == name and message in str(err.value)
+    assert isinstance(err.value, RunError) and isinstance(err.value, ValueError)
+
+
+def test_settings_are_frozen_and_normalised():
+    s = RunSettings(min_probability=1, optimizer_options={"n_candidates": 10})
+    assert s.min_probability == 1.0 and isinstance(s.min_probability, float)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        s.samples = 3
+    with pytest.raises(TypeError):
+        s.optimizer_options["n_candidates"] = 11
+    assert s.replace(samples=7).samples == 7 and s.samples == 100
+    with pytest.raises(SettingError, match="samples"):
+        s.replace(samples=0)
+    # no validation: the validation seed may equal the optimisation's
+    assert RunSettings(validation_samples=0, validation_seed=1).validation_seed == 1
+
+
+def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
+    s = RunSettings()
+    assert all(getattr(s, name) is None for name in NEW_RUN_DEFAULTS)
+    with pytest.raises(ValueError, match="resolved"):
+        s.record("mass", {})
+    new = s.resolved(None)
+    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == NEW_RUN_DEFAULTS
+    old = s.resolved({})                 # a run.json from before the settings existed
+    assert {n: getattr(old, n) for n in NEW_RUN_DEFAULTS} == {
+        n: RECORDED_DEFAULTS[n] for n in NEW_RUN_DEFAULTS}
+    flipped = {n: not v if isinstance(v, bool) else v for n, v in NEW_RUN_DEFAULTS.items()}
+    assert s.resolved(flipped) == s.replace(**flipped)
+    explicit = RunSettings(validation_stop=False)
+    assert explicit.resolved(None).validation_stop is False
+    rec = new.record("mass", {"model_version": "m"})
+    assert rec["case"] == "mass" and rec["model_version"] == "m"
+    assert set(RunSettings.field_names()) <= set(rec)
+
+
+def test_run_refuses_unknown_settings():
+    with pytest.raises(TypeError, match="unknown settings \\['sample'\\]"):
+        run_optimization("mass", problem=None, sample=3)
+
+
+def test_command_line_defaults_are_the_settings_defaults():
+    parser = cli.build_parser()
+    args = parser.parse_args(["optimize", "--case", "mass"])
+    from tethernet_ros.commands.optimize import run_settings
+
+    assert run_settings(args) == RunSettings()
+    for name in ("iterations", "seed_points", "samples", "validation_samples", "seed",
+                 "sample_seed", "validation_seed", "validation_candidates",
+                 "validation_rule", "validation_stop"):
+        assert getattr(args, name) == getattr(RunSettings(), name), name
