@@ -34,6 +34,7 @@ from ament_index_python.packages import get_package_prefix, get_package_share_di
 from ament_index_python.resources import get_resource
 import tethernet_msgs.msg, tethernet_ros
 from tethernet_msgs.msg import NoiseSettings
+from tethernet_msgs.action import Capture
 prefix = get_package_prefix("tethernet_ros")
 exe_dir = os.path.join(prefix, "lib", "tethernet_ros")
 interfaces, msgs_prefix = get_resource("rosidl_interfaces", "tethernet_msgs")
@@ -48,6 +49,7 @@ print(json.dumps({
     "msgs_module": tethernet_msgs.msg.__file__,
     "ros_module": tethernet_ros.__file__,
     "noise_default": NoiseSettings().speed_scale,
+    "canceled": Capture.Result.CANCELED,
 }))
 """
 
@@ -94,6 +96,7 @@ def test_ament_index_finds_nodes_and_interfaces(workspace):
                  "LaunchCommand", "NetState", "NoiseSettings"):
         assert f"msg/{name}.msg" in found["interfaces"], name
     assert "srv/RunCapture.srv" in found["interfaces"]
+    assert "action/Capture.action" in found["interfaces"]     # `ros2 action` / `interface`
     # `ros2 launch tethernet_ros tethernet.launch.py` and its parameter file
     share = Path(found["share"])
     assert (share / "launch" / "tethernet.launch.py").is_file()
@@ -103,6 +106,7 @@ def test_ament_index_finds_nodes_and_interfaces(workspace):
     assert found["msgs_module"].startswith(str(install / "tethernet_msgs"))
     assert found["ros_module"].startswith(str(install / "tethernet_ros"))
     assert found["noise_default"] == 1.0
+    assert found["canceled"] == 4
 
 
 def test_installed_executables_run(workspace):

@@ -285,3 +285,130 @@ def test_result_and_verdict_are_latched(suite, nominal_seed7):
             assert got[key][0].seed == 7 and got[key][0].nominal
     finally:
         graph.close()
+
+
+# --- the Capture action ------------------------------------------------------------------------------
+class ActionUser:
+    """An rclpy ActionClient of the Capture action, as `ros2 action send_goal` uses it."""
+
+    def __init__(self, suite, name: str):
+        from rclpy.action import ActionClient
+        from tethernet_msgs.action import Capture
+
+        from tethernet_ros.ros.names import ACTION
+
+        self.graph = Graph(int(suite.env["ROS_DOMAIN_ID"]), name)
+        self.client = ActionClient(self.graph.node, Capture, ACTION)
+        assert self.graph.spin_until(self.client.server_is_ready), "no Capture action server"
+        self.feedback: list = []
+
+    def send(self, goal):
+        self.feedback.clear()
+        future = self.client.send_goal_async(goal, feedback_callback=lambda m: self.feedback.append(m.feedback))
+        handle = self.graph.result(future)
+        assert handle.accepted                 # every goal is accepted (Capture.action)
+        return handle
+
+    def result(self, handle, timeout: float = 300.0):
+        return self.graph.result(handle.get_result_async(), timeout)
+
+    def close(self):
+        self.client.destroy()
+        self.graph.close()
+
+
+def goal_of(design, seed: int, **fields):
+    from tethernet_msgs.action import Capture
+
+    from tethernet_ros.ros.conversions import design_msg
+
+    return Capture.Goal(design=design_msg(design), seed=seed, **fields)
+
+
+def test_capture_action_feedback_and_result(suite):
+    from action_msgs.msg import GoalStatus
+    from tethernet_msgs.action import Capture
+
+    from tethernet_ros.core.episode import run_episode
+
+    user = ActionUser(suite, "tethernet_test_action")
+    try:
+        handle = user.send(goal_of(DESIGN, 3, record_bag=True, bag_name="action_seed3"))
+        answer = user.result(handle)
+        assert answer.status == GoalStatus.STATUS_SUCCEEDED
+        res = answer.result
+        assert res.status == Capture.Result.SUCCEEDED and res.error == "", res.error
+        ref = run_episode(DESIGN, NoiseModel().sample(3), CONFIG, record_trace=False)
+        r = res.result
+        assert r.seed == 3 and r.settled_cqi == ref.settled_cqi        # bit for bit
+        assert r.completion_time == ref.completion_time and r.success == ref.success
+        assert Path(res.bag_path).name == "action_seed3" and Path(res.bag_path).is_dir()
+        # feedback while it ran: sim time rising to the end, the CQI of each state
+        assert len(user.feedback) >= 2
+        times = [f.sim_time for f in user.feedback]
+        assert times == sorted(times) and times[-1] == ref.completion_time
+        assert user.feedback[-1].cqi == ref.settled_cqi
+        assert user.feedback[-1].locked_pairs == ref.locked_pairs
+        assert user.feedback[-1].states >= 2 and user.feedback[-1].wall_time > 0
+    finally:
+        user.close()
+
+
+def test_capture_action_cancel(suite):
+    """A goal canceled mid-episode ends CANCELED: the simulation stops (no result is
+    published for it), the bag stays marked incomplete, and the next goal runs."""
+    from action_msgs.msg import GoalStatus
+    from tethernet_msgs.action import Capture
+    from tethernet_msgs.msg import EpisodeResult
+
+    from tethernet_ros.bags import MARKER
+    from tethernet_ros.ros.names import TOPICS
+    from tethernet_ros.ros.qos import latched_qos
+
+    user = ActionUser(suite, "tethernet_test_cancel")
+    sim = user.graph.params("/sim_node")
+    try:
+        assert set_param(user.graph, sim, "real_time_factor", 1.0).successful    # 1 s per s
+        handle = user.send(goal_of(DESIGN, 4, record_bag=True, bag_name="canceled"))
+        assert user.graph.spin_until(lambda: any(f.states >= 3 for f in user.feedback), 60)
+        cancel = user.graph.result(handle.cancel_goal_async())
+        assert len(cancel.goals_canceling) == 1
+        answer = user.result(handle, timeout=30)
+        assert answer.status == GoalStatus.STATUS_CANCELED
+        res = answer.result
+        assert res.status == Capture.Result.CANCELED and "canceled" in res.error
+        assert res.result == EpisodeResult()                         # no result
+        bag = Path(res.bag_path)
+        assert bag.name == "canceled.partial" and "canceled" in (bag / MARKER).read_text()
+        # the simulation stopped: no result for that episode, ever
+        last: list = []
+        user.graph.node.create_subscription(EpisodeResult, TOPICS["result"], last.append,
+                                            latched_qos())
+        user.graph.spin_until(lambda: False, timeout=1.0)
+        assert all(m.episode_id != "canceled" for m in last)
+        assert set_param(user.graph, sim, "real_time_factor", 0.0).successful
+        # ... and is free for the next goal
+        handle = user.send(goal_of(DESIGN, 4))
+        answer = user.result(handle, timeout=120)
+        assert answer.result.status == Capture.Result.SUCCEEDED, answer.result.error
+        assert answer.result.result.seed == 4
+    finally:
+        set_param(user.graph, sim, "real_time_factor", 0.0)
+        user.close()
+
+
+def test_capture_action_invalid_goal_says_why(suite):
+    from action_msgs.msg import GoalStatus
+    from tethernet_msgs.action import Capture
+
+    user = ActionUser(suite, "tethernet_test_invalid")
+    try:
+        goal = goal_of(DESIGN, 1)
+        goal.design.thread_radius = -1.0
+        answer = user.result(user.send(goal), timeout=30)
+        assert answer.status == GoalStatus.STATUS_ABORTED
+        assert answer.result.status == Capture.Result.REJECTED
+        assert answer.result.error.startswith("design.thread_radius: "), answer.result.error
+        assert answer.result.bag_path == ""
+    finally:
+        user.close()

@@ -24,7 +24,10 @@ from tethernet_msgs.msg import (  # noqa: E402
     NetState,
     NoiseSettings,
 )
+from tethernet_msgs.action import Capture  # noqa: E402
 from tethernet_msgs.srv import RunCapture  # noqa: E402
+
+from tethernet_ros.ros import names  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(60)]
 
@@ -71,8 +74,20 @@ EXPECTED_FIELDS = {
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
     },
     RunCapture.Response: {
-        "accepted": "boolean", "error": "string", "result": "tethernet_msgs/EpisodeResult",
+        "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
         "bag_path": "string",
+    },
+    Capture.Goal: {
+        "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
+        "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
+    },
+    Capture.Result: {
+        "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
+        "bag_path": "string",
+    },
+    Capture.Feedback: {
+        "sim_time": "double", "cqi": "double", "locked_pairs": "uint32",
+        "closing_active": "boolean", "states": "uint32", "wall_time": "double",
     },
 }
 
@@ -126,13 +141,29 @@ def _all_messages():
         noise,
         RunCapture.Request(design=_baseline_design(), seed=11, nominal=True, noise=noise,
                            record_bag=True, bag_name="baseline_11"),
-        RunCapture.Response(accepted=True, error="", result=result, bag_path="bags/baseline_11"),
+        RunCapture.Response(status=RunCapture.Response.SUCCEEDED, error="", result=result,
+                            bag_path="bags/baseline_11"),
+        Capture.Result(status=Capture.Result.CANCELED, error="canceled by the client",
+                       bag_path="bags/x.partial"),
+        Capture.Feedback(sim_time=3.5, cqi=4.25, locked_pairs=2, closing_active=True, states=36,
+                         wall_time=0.12),
     ]
 
 
 @pytest.mark.parametrize("msg_type", list(EXPECTED_FIELDS), ids=lambda t: t.__qualname__)
 def test_generated_fields(msg_type):
     assert msg_type.get_fields_and_field_types() == EXPECTED_FIELDS[msg_type]
+
+
+def test_status_constants_agree():
+    """RunCapture's and Capture's status constants are names.py's (0 is never sent)."""
+    for cls in (RunCapture.Response, Capture.Result):
+        for name in ("SUCCEEDED", "REJECTED", "ABORTED"):
+            assert getattr(cls, name) == getattr(names, name), (cls, name)
+        assert cls().status == 0
+    assert Capture.Result.CANCELED == names.CANCELED
+    assert not hasattr(RunCapture.Response, "CANCELED")          # a service call cannot be
+    assert set(names.STATUS_NAMES) == {1, 2, 3, 4}
 
 
 @pytest.mark.parametrize("msg", _all_messages(), ids=lambda m: type(m).__qualname__)
@@ -209,10 +240,10 @@ def test_run_capture_service_round_trip(ros_pair):
     def handle(request, response):
         m_c = request.design.corner_mass
         if not 0.0 < m_c <= 100.0:
-            response.accepted = False
+            response.status = RunCapture.Response.REJECTED
             response.error = f"design.corner_mass={m_c} kg outside (0, 100] kg"
             return response
-        response.accepted = True
+        response.status = RunCapture.Response.SUCCEEDED
         response.result.seed = request.seed
         response.result.nominal = request.nominal
         response.result.mass = 4.0 * m_c
@@ -234,7 +265,7 @@ def test_run_capture_service_round_trip(ros_pair):
 
     ok = call(RunCapture.Request(design=_baseline_design(), seed=2**40 + 3, nominal=False,
                                  record_bag=True, bag_name="b1"))
-    assert ok.accepted and ok.error == ""
+    assert ok.status == RunCapture.Response.SUCCEEDED and ok.error == ""
     assert ok.result.seed == 2**40 + 3 and ok.result.nominal is False
     assert ok.result.mass == pytest.approx(2.0)
     assert ok.result.locked_pairs == 12 and ok.bag_path == "bags/b1"
@@ -242,4 +273,4 @@ def test_run_capture_service_round_trip(ros_pair):
     bad_design = _baseline_design()
     bad_design.corner_mass = -1.0
     bad = call(RunCapture.Request(design=bad_design, seed=1))
-    assert not bad.accepted and "corner_mass" in bad.error
+    assert bad.status == RunCapture.Response.REJECTED and "corner_mass" in bad.error

@@ -24,6 +24,9 @@ import yaml
 
 pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
 
+from tethernet_msgs.msg import EpisodeResult  # noqa: E402
+from tethernet_msgs.srv import RunCapture  # noqa: E402
+
 from tethernet_ros.bags import MARKER, read_bag, type_hash  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
@@ -126,7 +129,9 @@ def test_bag_with_rosbags(captured, reference):
         TOPICS["result"]: "tethernet_msgs/msg/EpisodeResult",
         TOPICS["verdict"]: "tethernet_msgs/msg/EpisodeResult",
         TOPICS["clock"]: "rosgraph_msgs/msg/Clock",
+        TOPICS["cancel"]: "std_msgs/msg/String",
     }
+    assert TOPICS["cancel"] not in msgs                 # nothing canceled
     # one setup, one of each command, one result, one verdict
     for key in ("setup", "launch_command", "closing_command", "result", "verdict"):
         assert len(msgs[TOPICS[key]]) == 1, key
@@ -216,7 +221,8 @@ def test_bag_with_mcap_ros2_and_metadata(captured):
                                                       + decoded.num_tether_nodes)
             assert "offered_qos_profiles" in channel.metadata
     listed = {t["topic_metadata"]["name"]: t["message_count"] for t in meta["topics_with_message_count"]}
-    assert counts == listed
+    assert counts == {t: n for t, n in listed.items() if n}
+    assert listed[TOPICS["cancel"]] == 0
     assert sum(counts.values()) == meta["message_count"]
     latched = {TOPICS["result"], TOPICS["verdict"]}
     for t in meta["topics_with_message_count"]:
@@ -316,7 +322,8 @@ def test_bad_requests_are_refused_and_the_node_keeps_serving(suite, reference):
     cases.append((suite.request(DESIGN, SEED, bag_name="time-min_seed3"), "bag_name"))  # exists
     for req, field in cases:
         resp = suite.call(req, timeout=30)
-        assert not resp.accepted, field
+        assert resp.status == RunCapture.Response.REJECTED, field
+        assert resp.result == EpisodeResult() and resp.bag_path == ""     # nothing ran
         assert resp.error.startswith(field), resp.error
         assert "\n" not in resp.error
     # ... and the next valid request (nominal, no bag) is served
@@ -331,8 +338,6 @@ def test_request_without_noise_settings_gets_the_nominal_spreads(suite):
     """A request that gives a design and a seed and leaves the noise settings out (the
     message defaults: every scale 1.0) runs with the nominal spreads: the library's
     episode of that seed, bit for bit, not a noise-free one."""
-    from tethernet_msgs.srv import RunCapture
-
     from tethernet_ros.ros.conversions import design_msg
 
     seed = 5
@@ -340,7 +345,7 @@ def test_request_without_noise_settings_gets_the_nominal_spreads(suite):
     req.design = design_msg(DESIGN)
     req.seed = seed
     resp = suite.call(req, timeout=300)
-    assert resp.accepted and resp.error == "", resp.error
+    assert resp.status == RunCapture.Response.SUCCEEDED and resp.error == "", resp.error
     assert resp.bag_path == ""                            # record_bag left out: false
     ref = run_episode(DESIGN, NoiseModel().sample(seed), CONFIG, record_trace=False)
     r = resp.result
@@ -362,7 +367,8 @@ def test_sim_node_killed_mid_episode(suite):
     suite.kill("sim_node")
     assert suite.spin_until(future.done, timeout=30), "the service did not answer"
     resp = future.result()
-    assert resp.accepted
+    assert resp.status == RunCapture.Response.ABORTED
+    assert resp.result == EpisodeResult()             # no result: all zero
     assert resp.error.startswith("timed out") and "sim_node" in resp.error, resp.error
     bag = Path(resp.bag_path)
     assert bag.name == "killed.partial" and (bag / MARKER).is_file()

@@ -32,6 +32,7 @@ from ..bags.naming import sample_name
 from ..montecarlo import (EpisodeBackend, EpisodeTask, Outcome, SampleResult, error_text,
                           sample_result)
 from .conversions import episode_result_from_msg
+from .names import REJECTED, STATUS_NAMES, SUCCEEDED
 from .results import BagResultError, compare_results, result_from_bag
 
 __all__ = ["RosBackend", "result_from_bag", "BagResultError"]
@@ -130,12 +131,13 @@ class RosBackend(EpisodeBackend):
                                         record_bag=True, bag_name=name),
                           timeout=self.episode_timeout)
         wall = time.perf_counter() - t0
-        if not resp.accepted:
+        if resp.status == REJECTED:
             raise RuntimeError(f"RunCapture refused the sample: {resp.error}")
         bag = resp.bag_path
         try:
-            if resp.error:
-                raise RuntimeError(f"RunCapture failed: {resp.error}")
+            if resp.status != SUCCEEDED:
+                raise RuntimeError(f"RunCapture failed ({STATUS_NAMES.get(resp.status, resp.status)}): "
+                                   f"{resp.error}")
             if not bag:
                 raise RuntimeError("RunCapture recorded no bag")
             msg, metrics = result_from_bag(bag, name, with_metrics=task.record_trace)

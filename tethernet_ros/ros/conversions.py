@@ -16,6 +16,7 @@ from __future__ import annotations
 import array
 import json
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,6 +25,7 @@ from ..core.design import Design, DesignError
 from ..core.episode import EpisodeResult
 from ..core.noise import NOISE_SOURCES, NoiseError, NoiseModel
 from ..core.scenario import Actions, World
+from .names import SUCCEEDED
 from .state import Setup, StateArrays
 
 #: core design field -> Design.msg field
@@ -303,6 +305,14 @@ def metrics_msg(terms, sim_time: float, locked_pairs: int, closing_active: bool,
     return m
 
 
+def metrics_from_cdr(data: bytes):
+    """The CaptureMetrics message of its serialized (CDR) bytes."""
+    from rclpy.serialization import deserialize_message
+    from tethernet_msgs.msg import CaptureMetrics
+
+    return deserialize_message(data, CaptureMetrics)
+
+
 def terms_from_msg(m) -> dict[str, float]:
     """The CQI terms of a CaptureMetrics message, by name."""
     return {name: getattr(m, name) for name in TERM_FIELDS}
@@ -343,3 +353,52 @@ def episode_result_from_msg(m) -> EpisodeResult:
         completion_time=float(m.completion_time), mass=float(m.mass),
         failure_reason=m.failure_reason, wall_time=float(m.wall_time),
         seed=None if m.nominal else int(m.seed), steps=-1, max_penetration=math.nan)
+
+
+# --- the RunCapture service and the Capture action ------------------------------------------
+@dataclass
+class Outcome:
+    """How one RunCapture request or Capture goal ended.  status: names.SUCCEEDED,
+    REJECTED, ABORTED or CANCELED; error: '' when SUCCEEDED, else why (one line);
+    result: the EpisodeResult message (SUCCEEDED only); bag_path: '' if none."""
+
+    status: int
+    error: str = ""
+    result: object = None
+    bag_path: str = ""
+
+
+def capture_reply(reply, outcome: Outcome):
+    """Fill a RunCapture.Response or Capture.Result (the same fields) from an Outcome;
+    the result stays all zero unless SUCCEEDED.  Returns ``reply``."""
+    reply.status = int(outcome.status)
+    reply.error = outcome.error
+    reply.bag_path = outcome.bag_path
+    if outcome.status == SUCCEEDED and outcome.result is not None:
+        reply.result = outcome.result
+    return reply
+
+
+def capture_feedback_msg(metrics, states: int, wall_time: float):
+    """Capture.Feedback of the latest CaptureMetrics message (None: none yet), the states
+    heard so far and the wall time since the goal started (s)."""
+    from tethernet_msgs.action import Capture
+
+    fb = Capture.Feedback()
+    fb.states = int(states)
+    fb.wall_time = float(wall_time)
+    if metrics is not None:
+        fb.sim_time = float(metrics.sim_time)
+        fb.cqi = float(metrics.cqi)
+        fb.locked_pairs = int(metrics.locked_pairs)
+        fb.closing_active = bool(metrics.closing_active)
+    else:
+        fb.cqi = math.nan
+    return fb
+
+
+def cancel_msg(episode_id: str):
+    """The cancel topic's message (std_msgs/String): the id of the episode to stop."""
+    from std_msgs.msg import String
+
+    return String(data=episode_id)

@@ -26,6 +26,7 @@ TOPICS: dict[str, str] = {
     "result": "/tethernet/episode_result",
     "verdict": "/tethernet/monitor_verdict",
     "clock": "/clock",
+    "cancel": "/tethernet/cancel_episode",
 }
 
 #: message type of every topic (ROS 2 type names)
@@ -40,11 +41,19 @@ TOPIC_TYPES: dict[str, str] = {
     "result": "tethernet_msgs/msg/EpisodeResult",
     "verdict": "tethernet_msgs/msg/EpisodeResult",
     "clock": "rosgraph_msgs/msg/Clock",
+    "cancel": "std_msgs/msg/String",       # the episode id: the simulation stops it
 }
 
 SERVICE = "/tethernet/run_capture"
 #: the Capture action (tethernet_msgs/action/Capture): one capture with feedback and cancel
 ACTION = "/tethernet/capture"
+
+#: how a RunCapture request or a Capture goal ended (the constants of RunCapture.srv and
+#: Capture.action, tests/test_ros_interfaces.py checks that they agree); 0 is never sent.
+#: The result is valid only when SUCCEEDED.
+SUCCEEDED, REJECTED, ABORTED, CANCELED = 1, 2, 3, 4
+STATUS_NAMES = {SUCCEEDED: "SUCCEEDED", REJECTED: "REJECTED", ABORTED: "ABORTED",
+                CANCELED: "CANCELED"}
 #: std_srvs/Trigger of the capture node: success when it sees every node of the suite
 READY_SERVICE = "/tethernet/suite_ready"
 

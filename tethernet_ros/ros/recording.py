@@ -49,6 +49,7 @@ class Episode:
     n_states: int = 0
     n_metrics: int = 0
     last_message: float = 0.0
+    last_metrics: bytes | None = None      # the latest CaptureMetrics (CDR), for feedback
     result: object = None                  # the simulation's EpisodeResult message
     verdict: object = None                 # the monitor's EpisodeResult message
     last_stamp: dict = field(default_factory=dict)   # STAMPED key -> (sec, nanosec)
@@ -71,6 +72,7 @@ class Episode:
                 self.last_state = now
             elif key == "metrics":
                 self.n_metrics += 1
+                self.last_metrics = data
             elif key in ("result", "verdict"):
                 from rclpy.serialization import deserialize_message
                 from tethernet_msgs.msg import EpisodeResult
@@ -93,6 +95,11 @@ class Episode:
         """Seconds since the last message."""
         with self.lock:
             return time.monotonic() - self.last_message
+
+    def progress(self) -> tuple[int, bytes | None]:
+        """(metrics messages heard, the latest one serialized, or None)."""
+        with self.lock:
+            return self.n_metrics, self.last_metrics
 
     def settled(self) -> bool:
         """True once there is a metrics message for every state heard."""

@@ -28,7 +28,8 @@ from ..core.episode import EpisodeResult, EpisodeTrace
 from ..core.noise import NoiseModel
 from ..errors import UserError
 from . import conversions as conv
-from .names import NODES, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, SERVICE, TOPICS
+from .names import NODES, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
+    SERVICE, STATUS_NAMES, SUCCEEDED, TOPICS
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 
@@ -320,7 +321,7 @@ class RosSuite:
                                       f"response (logs: {self.log_dir})")
         resp = future.result()
         # the last state's metrics may still be queued: wait (1 s at most) until they are in
-        if resp.accepted and not resp.error:
+        if resp.status == SUCCEEDED:
             final = resp.result.header.stamp.sec + 1e-9 * resp.result.header.stamp.nanosec
             self.spin_until(lambda: bool(self._metrics) and self._metrics[-1].sim_time >= final - 1e-6,
                             timeout=1.0)
@@ -330,10 +331,11 @@ class RosSuite:
                 record_bag: bool = True, bag_name: str | None = None,
                 timeout: float = 900.0) -> tuple[EpisodeResult, str | None]:
         resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name), timeout)
-        if not resp.accepted:
+        if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
-        if resp.error:
-            raise RosCaptureError(resp.error + (f" (bag: {resp.bag_path})" if resp.bag_path else ""))
+        if resp.status != SUCCEEDED:
+            raise RosCaptureError(f"{STATUS_NAMES.get(resp.status, resp.status)}: {resp.error}"
+                                  + (f" (bag: {resp.bag_path})" if resp.bag_path else ""))
         result = conv.episode_result_from_msg(resp.result)
         result.trace = self._trace()
         if result.trace.time and math.isfinite(result.settled_cqi):

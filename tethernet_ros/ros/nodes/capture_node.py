@@ -1,24 +1,29 @@
-"""Capture service node: the RunCapture service, and the suite's bag recorder.
+"""Capture node: the RunCapture service, the Capture action, and the suite's bag recorder.
 
 Service     RunCapture (``service`` parameter, default /tethernet/run_capture).
+Action      Capture (``action`` parameter, default /tethernet/capture): the same capture as
+            a goal, with feedback (sim time, CQI, n_L of the latest state) and cancel.
 Service     std_srvs/Trigger /tethernet/suite_ready: success when this node sees every
             subscriber and publisher of the suite (its message says what is missing).
-Publishes   EpisodeSetup (the validated request plus this node's SimConfig parameters).
+Publishes   EpisodeSetup (the validated request plus this node's SimConfig parameters), and
+            the episode id on the cancel topic when a goal is canceled.
 Subscribes  every suite topic, serialized (raw CDR), and writes it to the episode's bag.
 
-One request = one episode:
-  1. validate the request (design, noise settings, bag name); an invalid one gets
-     ``accepted = false`` and an error naming the field, and the node keeps serving;
+One request or goal = one episode (one at a time; others wait their turn):
+  1. validate the request (design, noise settings, bag name); an invalid one ends with
+     status REJECTED and an error naming the field, and the node keeps serving;
   2. check that the simulation, monitor and actuator nodes are up (graph matching);
+     REJECTED if not;
   3. open the bag (``<bag_dir>/<name>.partial`` with an INCOMPLETE marker, bags/naming.py),
      publish the EpisodeSetup, and record everything until the simulation's EpisodeResult
      and the monitor's verdict have arrived and every stamped topic has reached the
      result's stamp (recording.py); a simulation that stops publishing states for
-     ``stall_timeout`` s (or never starts within ``start_timeout`` s) aborts the episode
-     with a one-line error, and the bag stays marked incomplete;
+     ``stall_timeout`` s (or never starts within ``start_timeout`` s) ends the episode
+     ABORTED with a one-line error, and the bag stays marked incomplete; a canceled goal
+     ends CANCELED (the simulation is told to stop, the bag stays marked incomplete);
   4. close the bag (metadata.yaml, rename to ``<bag_dir>/<name>``), check that the
-     monitor's verdict equals the simulation's result exactly, and respond with the
-     result and the bag path.
+     monitor's verdict equals the simulation's result exactly (ABORTED if not), and
+     answer SUCCEEDED with the result and the bag path.
 A shutdown (SIGINT, SIGTERM) during an episode ends it at once: the bag is finished as
 far as it got and left ``.partial`` with the reason in its INCOMPLETE marker.
 """
@@ -29,6 +34,7 @@ import time
 from pathlib import Path
 
 import rclpy
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
@@ -36,8 +42,9 @@ from ...bags import BagError, BagWriter, message_definition, qos_profile
 from ...bags.naming import capture_name, check_name, taken
 from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
-from ..names import ALWAYS_RECORDED, LATCHED, READY_SERVICE, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
-    TOPIC_TYPES, TOPICS, recorder_name
+from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, READY_SERVICE, REJECTED, \
+    REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, \
+    recorder_name
 from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
     topic
 from ..qos import LATCHED_DEPTH, command_qos, state_qos
@@ -51,11 +58,20 @@ STATE_DEPTH = 1000
 #: topics recorded with the states' QoS (the rest: the commands' QoS)
 STATE_TOPICS = ("net_state", "target_pose", "markers", "metrics", "clock")
 SHUTDOWN = "the capture node shut down during the episode (SIGINT or SIGTERM)"
+CANCELED_TEXT = "canceled by the client"
+#: s (wall) between two feedback messages of a goal
+FEEDBACK_PERIOD = 0.1
+#: threads of the node's executor: the service, a goal's execution, the action server's
+#: requests (goal, cancel, result) and suite_ready can all be in a callback at once
+THREADS = 4
 
 
 class CaptureNode(Node):
     def __init__(self):
+        from rclpy.action import ActionServer, CancelResponse, GoalResponse
+        from std_msgs.msg import String
         from std_srvs.srv import Trigger
+        from tethernet_msgs.action import Capture
         from tethernet_msgs.msg import EpisodeSetup
         from tethernet_msgs.srv import RunCapture
 
@@ -67,6 +83,8 @@ class CaptureNode(Node):
         self.topic_names = {k: topic(self, k) for k in TOPICS}
         self.pub_setup = self.create_publisher(EpisodeSetup, self.topic_names["setup"],
                                                command_qos())
+        self.pub_cancel = self.create_publisher(String, self.topic_names["cancel"], command_qos())
+        self._busy = threading.Lock()              # one episode at a time
         # The recorder is a second node spun by its own single-threaded executor in its
         # own thread: the service callback below blocks for a whole episode, and rclpy's
         # multi-threaded executor costs about three times more CPU per message (measured
@@ -93,11 +111,22 @@ class CaptureNode(Node):
         self._rec_thread = threading.Thread(target=self._spin_recorder, name="recorder",
                                             daemon=True)
         self._rec_thread.start()
-        self.create_service(RunCapture, param(self, "service"), self.on_request)
+        # the service and a goal block for a whole episode (in their own callback groups,
+        # on the executor's threads: main() runs THREADS); suite_ready, goal and cancel
+        # requests are answered meanwhile
+        self.create_service(RunCapture, param(self, "service"), self.on_request,
+                            callback_group=MutuallyExclusiveCallbackGroup())
+        self._capture = Capture
+        self._action = ActionServer(
+            self, Capture, param(self, "action"), execute_callback=self.on_goal,
+            goal_callback=lambda goal: GoalResponse.ACCEPT,        # see Capture.action
+            cancel_callback=lambda goal_handle: CancelResponse.ACCEPT,
+            callback_group=ReentrantCallbackGroup())
         # readiness as this node sees the graph (DDS discovery reaches each participant at
         # its own pace: a launcher's view of the graph is not this node's)
         self.create_service(Trigger, READY_SERVICE, self.on_ready)
-        self.get_logger().info(f"ready: service {param(self, 'service')}, bags in "
+        self.get_logger().info(f"ready: service {param(self, 'service')}, action "
+                               f"{param(self, 'action')}, bags in "
                                f"{Path(param(self, 'bag_dir')).resolve()}")
 
     def on_ready(self, request, response):
@@ -152,25 +181,63 @@ class CaptureNode(Node):
         return design, noise
 
     def on_request(self, request, response):
+        return conv.capture_reply(response, self.capture(request))
+
+    def on_goal(self, goal_handle):
+        t0 = time.monotonic()
+
+        def feedback(metrics, states):
+            goal_handle.publish_feedback(conv.capture_feedback_msg(metrics, states,
+                                                                   time.monotonic() - t0))
+
+        outcome = self.capture(goal_handle.request, feedback=feedback,
+                               canceled=lambda: goal_handle.is_cancel_requested)
+        if outcome.status == SUCCEEDED:
+            goal_handle.succeed()
+        elif outcome.status == CANCELED:
+            goal_handle.canceled()
+        else:
+            goal_handle.abort()
+        return conv.capture_reply(self._capture.Result(), outcome)
+
+    def capture(self, request, feedback=None, canceled=None) -> conv.Outcome:
+        """One episode of a RunCapture request or Capture goal (the same fields), after
+        the episode before it.  feedback(metrics message or None, states heard): called
+        every FEEDBACK_PERIOD s while it runs; canceled(): True once the client canceled."""
+        canceled = canceled or (lambda: False)
+        while not self._busy.acquire(timeout=0.05):
+            if not self.context.ok():
+                return conv.Outcome(ABORTED, SHUTDOWN)
+            if canceled():
+                return conv.Outcome(CANCELED, f"{CANCELED_TEXT} (before the episode started)")
+        try:
+            outcome = self._capture_episode(request, feedback, canceled)
+        finally:
+            self._busy.release()
         log = self.get_logger()
-        response.accepted = False
+        text = f"{STATUS_NAMES[outcome.status].lower()}: {outcome.error}"
+        if outcome.status == REJECTED:
+            log.warning(text)
+        elif outcome.status == ABORTED:
+            log.error(text)
+        elif outcome.status == CANCELED:
+            log.info(outcome.error)
+        return outcome
+
+    def _capture_episode(self, request, feedback, canceled) -> conv.Outcome:
+        log = self.get_logger()
         bag_dir = Path(param(self, "bag_dir"))
         try:
             design, noise = self.check_request(request, bag_dir)
         except conv.RequestError as exc:
-            response.error = str(exc)
-            log.warning(f"request rejected: {exc}")
-            return response
+            return conv.Outcome(REJECTED, str(exc))
         try:
             config = self.sim_config()
         except (ConfigError, ValueError) as exc:
-            response.error = f"capture node configuration: {exc}"
-            return response
+            return conv.Outcome(REJECTED, f"capture node configuration: {exc}")
         missing = self.missing_nodes(float(param(self, "ready_timeout")))
         if missing:
-            response.error = f"suite not ready: {missing}"
-            log.error(response.error)
-            return response
+            return conv.Outcome(REJECTED, f"suite not ready: {missing}")
         seed = None if request.nominal else int(request.seed)
         episode_id = request.bag_name or capture_name(seed)
         writer = None
@@ -178,17 +245,15 @@ class CaptureNode(Node):
             try:
                 writer = self.open_bag(bag_dir, episode_id, design, seed)
             except (BagError, OSError) as exc:
-                response.error = f"bag_name: cannot record the bag: {exc}"
-                return response
-        response.accepted = True
+                return conv.Outcome(REJECTED, f"bag_name: cannot record the bag: {exc}")
         ep = Episode(episode_id=episode_id, writer=writer, started=time.monotonic())
         self.episode = ep
         log.info(f"episode {episode_id!r}: {'nominal' if seed is None else f'seed {seed}'}")
         try:
             self.pub_setup.publish(conv.setup_msg(episode_id, design, int(request.seed), noise,
                                                   config, time.time(), nominal=request.nominal))
-            error = self.wait_for_end(ep)
-        except Exception as exc:  # noqa: BLE001 - reported in the response
+            error = self.wait_for_end(ep, feedback, canceled)
+        except Exception as exc:  # noqa: BLE001 - reported in the answer
             error = f"{type(exc).__name__}: {exc}"
         except BaseException:                    # KeyboardInterrupt: leave a marked bag
             if writer is not None:
@@ -197,31 +262,37 @@ class CaptureNode(Node):
         finally:
             self.episode = None
         if error:
-            response.error = error
-            if writer is not None:
-                response.bag_path = str(writer.abort(error).resolve())
-            log.error(f"episode {episode_id!r}: {error}")
-            return response
-        if writer is not None:
-            response.bag_path = str(writer.close().resolve())
-        response.result = ep.result
+            status = CANCELED if error == CANCELED_TEXT else ABORTED
+            if self.context.ok():     # the simulation stops an episode given up (if it runs)
+                self.pub_cancel.publish(conv.cancel_msg(episode_id))
+            bag = str(writer.abort(error).resolve()) if writer is not None else ""
+            return conv.Outcome(status, error, bag_path=bag)
+        bag = str(writer.close().resolve()) if writer is not None else ""
         mismatch = compare_results(ep.result, ep.verdict)
         if mismatch:
-            response.error = f"monitor verdict disagrees with the simulation: {mismatch}"
-            log.error(response.error)
-        return response
+            return conv.Outcome(ABORTED, f"monitor verdict disagrees with the simulation: "
+                                f"{mismatch}", bag_path=bag)
+        return conv.Outcome(SUCCEEDED, result=ep.result, bag_path=bag)
 
-    def wait_for_end(self, ep: Episode) -> str:
+    def wait_for_end(self, ep: Episode, feedback=None, canceled=None) -> str:
         """'' once the result and the verdict are in (and late messages drained), else
-        the reason the episode failed (a timeout, or the node shutting down)."""
+        the reason the episode failed (a timeout, the node shutting down, CANCELED_TEXT)."""
         start_to = float(param(self, "start_timeout"))
         stall_to = float(param(self, "stall_timeout"))
         total_to = float(param(self, "episode_timeout"))
         sim = self.topic_names["net_state"]
+        next_feedback, fed = 0.0, -1
         while not ep.ended.wait(0.05):
             if not self.context.ok():
                 return SHUTDOWN
+            if canceled is not None and canceled():
+                return CANCELED_TEXT
             now = time.monotonic()
+            if feedback is not None and now >= next_feedback:
+                n, data = ep.progress()
+                if n != fed:
+                    fed, next_feedback = n, now + FEEDBACK_PERIOD
+                    feedback(None if data is None else conv.metrics_from_cdr(data), ep.n_states)
             if ep.last_state is None and now - ep.started > start_to:
                 return (f"timed out: no state on {sim} within {start_to:g} s of the request "
                         "(is sim_node running?)")
@@ -251,6 +322,9 @@ class CaptureNode(Node):
                     "the bag holds what arrived")
                 break
             time.sleep(0.002)
+        if feedback is not None:
+            n, data = ep.progress()
+            feedback(None if data is None else conv.metrics_from_cdr(data), ep.n_states)
         return ""
 
     def missing_nodes(self, timeout: float) -> str:
@@ -274,6 +348,7 @@ class CaptureNode(Node):
             time.sleep(0.05)
 
     def close(self) -> None:
+        self._action.destroy()
         ep = self.episode
         if ep is not None and ep.writer is not None:
             ep.writer.abort(SHUTDOWN)
@@ -288,7 +363,7 @@ class CaptureNode(Node):
 
 
 def main(args=None) -> int:
-    return run_node(CaptureNode, args)
+    return run_node(CaptureNode, args, threads=THREADS)
 
 
 if __name__ == "__main__":

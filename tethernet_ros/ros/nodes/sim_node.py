@@ -2,7 +2,8 @@
 
 Subscribes  EpisodeSetup (design, seed, configuration), LaunchCommand and ClosingCommand
             (the actuator's noisy actions and target placement; matched to the setup by
-            header stamp).
+            header stamp), and the cancel topic (std_msgs/String: the id of an episode to
+            stop, sent when a Capture goal is canceled).
 Publishes   NetState, target PoseStamped and /clock every ``publish_rate`` Hz of simulated
             time, a MarkerArray every ``marker_rate`` Hz, and at the end the simulation's
             EpisodeResult (latched: transient-local, depth 1).
@@ -15,8 +16,9 @@ which arrives before the first step, so nothing depends on message timing.
 
 The episode thread only copies the state at a publish step; the outbox thread
 (:mod:`..publishing`) builds and publishes the messages in order; the result is published
-after every state.  On shutdown (SIGINT, SIGTERM) the episode stops at its next publish
-step and the node exits.
+after every state.  A canceled episode, or one still running when the next EpisodeSetup
+arrives (the capture node gave up on it), stops at its next publish step and publishes
+no result; on shutdown (SIGINT, SIGTERM) the episode stops likewise and the node exits.
 """
 from __future__ import annotations
 
@@ -45,6 +47,7 @@ class SimNode(Node):
             LaunchCommand, NetState
         from geometry_msgs.msg import PoseStamped
         from rosgraph_msgs.msg import Clock
+        from std_msgs.msg import String
         from visualization_msgs.msg import MarkerArray
 
         super().__init__(NODE)
@@ -72,10 +75,12 @@ class SimNode(Node):
         self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
+        self._running: tuple[str, threading.Event] | None = None   # (episode id, its stop)
         self._outbox = Outbox(node.get_logger())
         node.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
         node.create_subscription(LaunchCommand, t("launch_command"), self.on_launch, cq)
         node.create_subscription(ClosingCommand, t("closing_command"), self.on_closing, cq)
+        node.create_subscription(String, t("cancel"), self.on_cancel, cq)
         node.get_logger().info("ready")
 
     # -- parameters read at each episode (they may be changed between episodes) ----------
@@ -94,9 +99,12 @@ class SimNode(Node):
     def on_setup(self, msg) -> None:
         log = self.node.get_logger()
         with self._lock:
-            if self._worker is not None and self._worker.is_alive():
-                log.warning(f"episode {msg.episode_id!r} ignored: an episode is running")
-                return
+            if self._running is not None:
+                # the capture node sends a setup only once it is done with the episode
+                # before: that one is abandoned (timed out there); stop it, then start this
+                log.warning(f"episode {self._running[0]!r} stopped: episode {msg.episode_id!r} "
+                            "supersedes it")
+                self._running[1].set()
             try:
                 self._setup = conv.setup_from_msg(msg)
             except Exception as exc:  # noqa: BLE001 - a bad setup is logged, not fatal
@@ -115,23 +123,39 @@ class SimNode(Node):
             self._commands.put(msg.header, "closing", msg)
         self._maybe_start()
 
+    def on_cancel(self, msg) -> None:
+        """Stop the running episode if it is the one named (the capture node's cancel)."""
+        with self._lock:
+            if self._running is not None and self._running[0] == msg.data:
+                self.node.get_logger().info(f"episode {msg.data!r}: canceled")
+                self._running[1].set()
+
     def _maybe_start(self) -> None:
         with self._lock:
-            if self._setup is None:
-                return
+            if self._setup is None or self._running is not None:
+                return                       # (an episode that ends calls this again)
             launch, closing = self._commands.get(self._setup.stamp)
             if launch is None or closing is None:
                 return
-            if self._worker is not None and self._worker.is_alive():
-                return
             setup = self._setup
             self._setup = None
-            self._worker = threading.Thread(target=self._run_episode, args=(setup, launch, closing),
+            stop = threading.Event()
+            self._running = (setup.episode_id, stop)
+            self._worker = threading.Thread(target=self._episode, args=(setup, launch, closing, stop),
                                             name="episode", daemon=True)
             self._worker.start()
 
+    def _episode(self, setup, launch, closing, stop: threading.Event) -> None:
+        try:
+            self._run_episode(setup, launch, closing, stop)
+        finally:
+            with self._lock:
+                self._running = None
+            if not self.stopping():
+                self._maybe_start()          # a setup that came meanwhile
+
     # -- the episode -------------------------------------------------------------------
-    def _run_episode(self, setup, launch, closing) -> None:
+    def _run_episode(self, setup, launch, closing, stop: threading.Event) -> None:
         log = self.node.get_logger()
         try:
             actions, world = conv.commands_from_msgs(launch, closing)
@@ -152,7 +176,7 @@ class SimNode(Node):
         outbox = self._outbox
 
         def publish_states(state, with_markers):       # runs in the outbox thread
-            if self.stopping():
+            if self.stopping() or stop.is_set():
                 return
             self.pub_clock.publish(conv.clock_msg(state.sim_time))
             self.pub_state.publish(conv.net_state_msg(state, frame))
@@ -176,7 +200,8 @@ class SimNode(Node):
             state = state_arrays(sim)
             outbox.put(lambda: self.stopping() or self.pub_markers.publish(markers.build(state)))
 
-        sim = PublishingSimulation(scenario, every, publish, self.stopping)
+        sim = PublishingSimulation(scenario, every, publish,
+                                   lambda: stop.is_set() or self.stopping())
         n_subs = int(self._p("min_state_subscribers"))
         timeout = float(self._p("match_timeout"))
         if not wait_for_subscribers(self.pub_state, n_subs, timeout, self.context):
