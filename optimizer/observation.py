@@ -2,6 +2,7 @@
 success probability estimated from Monte Carlo samples (:func:`binomial_observation`)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from collections.abc import Mapping
 
@@ -9,7 +10,10 @@ import numpy as np
 
 from .jsonio import json_clean
 
-__all__ = ["Observation", "binomial_observation"]
+__all__ = ["Observation", "binomial_observation", "wilson_interval", "Z95"]
+
+#: the standard normal's 97.5 % quantile (scipy.stats.norm.ppf(0.975)): two-sided 95 %
+Z95 = 1.959963984540054
 
 
 def binomial_observation(successes: int, trials: int) -> tuple[float, float]:
@@ -29,6 +33,21 @@ def binomial_observation(successes: int, trials: int) -> tuple[float, float]:
         raise ValueError(f"need 0 <= successes <= trials and trials > 0, got {k}/{n}")
     p_adj = (k + 1.0) / (n + 2.0)
     return k / n, p_adj * (1.0 - p_adj) / n
+
+
+def wilson_interval(successes: int, trials: int, z: float = Z95) -> tuple[float, float]:
+    """Wilson score interval (95 % by default) of a success probability from ``successes``
+    of ``trials``; (0, 1) without trials.  The formula of the simulator's results
+    (``tethernet_ros.core.metrics.wilson_interval``), here so that the optimiser needs
+    nothing of the simulator."""
+    k, n = int(successes), int(trials)
+    if n <= 0:
+        return 0.0, 1.0
+    p = k / n
+    den = 1 + z * z / n
+    centre = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, centre - half), min(1.0, centre + half)
 
 
 @dataclass

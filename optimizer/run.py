@@ -55,7 +55,9 @@ from .loop import minimize
 from .observation import Observation
 from .problem import DesignProblem
 from .report import write_history
-from .settings import MUTABLE, RECORDED_DEFAULTS, RUN_FORMAT, RunError, RunSettings
+from .sequential import allowed_failures
+from .settings import (MUTABLE, RECORDED_DEFAULTS, RUN_FORMAT, RunError, RunSettings,
+                       SettingError)
 
 __all__ = ["run_optimization", "RunError", "RunSettings", "default_run_dir",
            "read_run_settings", "RUN_FILES"]
@@ -167,9 +169,24 @@ def open_run(case: Case, problem: DesignProblem, settings: RunSettings,
     recorded = (read_run_settings(paths["settings"])
                 if resume and paths["settings"].exists() else None)
     settings = settings.resolved(recorded)
+    _check_validation_size(case, settings)
     record = json.loads(json.dumps(json_clean(settings.record(case.name, problem.settings()))))
     previous = _open_run_dir(run_dir, paths, record, resume)
     return OpenRun(case, problem, settings, paths, record, previous)
+
+
+def _check_validation_size(case: Case, settings: RunSettings) -> None:
+    """SettingError when the validations could never meet C_P by the run's rule (the
+    Wilson rule needs 189 samples at 98 %: fewer, all successes, leave the interval's
+    lower end below it)."""
+    n = settings.validation_samples
+    if n and allowed_failures(n, case.p_threshold, settings.validation_rule) < 0:
+        least = next(m for m in range(n, 100 * n + 1000)
+                     if allowed_failures(m, case.p_threshold, settings.validation_rule) >= 0)
+        raise SettingError("validation_samples", n,
+                           f"be 0 or at least {least} under validation_rule "
+                           f"{settings.validation_rule!r} (fewer can never meet C_P = "
+                           f"{case.p_threshold:g})")
 
 
 class _Progress:

@@ -27,22 +27,36 @@ from __future__ import annotations
 from dataclasses import dataclass
 from collections.abc import Sequence
 
+from .observation import wilson_interval
+
 __all__ = ["SequentialRule", "allowed_failures"]
 
 
-def allowed_failures(n_samples: int, threshold: float) -> int:
-    """F: the most failures among ``n_samples`` with ``(n - F) / n >= threshold``
-    (-1 when even ``n`` successes fall short of ``threshold``)."""
+def allowed_failures(n_samples: int, threshold: float, rule: str = "estimate") -> int:
+    """F: the most failures among ``n_samples`` that still meet ``threshold``: by the
+    estimate, ``(n - F) / n >= threshold`` ("estimate"), or by the lower end of the
+    Wilson 95 % interval of ``n - F`` successes ("wilson": F = 11 for 1000 samples at
+    98 %).  -1 when even ``n`` successes fall short."""
+    if rule not in ("estimate", "wilson"):
+        raise ValueError(f"rule: got {rule!r}; must be 'estimate' or 'wilson'")
     n = int(n_samples)
+
+    def meets(f: int) -> bool:
+        if rule == "wilson":
+            return wilson_interval(n - f, n)[0] >= threshold
+        return (n - f) / n >= threshold
+
     f = n
-    while f >= 0 and not (n - f) / n >= threshold:
+    while f >= 0 and not meets(f):
         f -= 1
     return f
 
 
 @dataclass(frozen=True)
 class SequentialRule:
-    """Stopping rule for N_MC = ``n_samples`` samples and C_P = ``threshold``.
+    """Stopping rule for N_MC = ``n_samples`` samples and C_P = ``threshold``; ``rule``:
+    what meets C_P at ``n_samples`` (:func:`allowed_failures`; "wilson" for validations
+    under the Wilson rule).
 
     Call it with the successes of samples 0..n-1 (index order); it returns the length of
     the shortest prefix that decides feasibility at ``n_samples``, or None when the
@@ -52,14 +66,17 @@ class SequentialRule:
     n_samples: int
     threshold: float
     stop_when_feasible: bool = True
+    rule: str = "estimate"
 
     def __post_init__(self):
         if int(self.n_samples) < 1:
             raise ValueError(f"n_samples: got {self.n_samples!r}; must be >= 1")
+        object.__setattr__(self, "_f_max", allowed_failures(self.n_samples, self.threshold,
+                                                            self.rule))
 
     @property
     def allowed_failures(self) -> int:
-        return allowed_failures(self.n_samples, self.threshold)
+        return self._f_max
 
     def __call__(self, successes: Sequence[bool]) -> int | None:
         n, f_max = int(self.n_samples), self.allowed_failures

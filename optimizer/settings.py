@@ -7,8 +7,8 @@ validation, selection); it checks every field when built and raises :class:`Sett
 settings in run.json (:meth:`RunSettings.record`); a resumed run must be asked for the same
 ones, except the :data:`MUTABLE` ones.
 
-A field of :data:`NEW_RUN_DEFAULTS` (``validation_stop``) takes ``None``, "as the run
-recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value
+The fields of :data:`NEW_RUN_DEFAULTS` (``validation_rule``, ``validation_stop``) take
+``None``, "as the run recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value
 in its run.json, or, if its run.json predates the setting, :data:`RECORDED_DEFAULTS` (what
 runs did before the setting existed).  :meth:`RunSettings.resolved` applies that rule.
 """
@@ -34,7 +34,7 @@ RUN_VERSION = 1
 MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
                      "validation_rule", "validation_stop", "compare_reference"})
 #: the value of a ``None`` ("as recorded") setting for a new run
-NEW_RUN_DEFAULTS = {"validation_stop": True}
+NEW_RUN_DEFAULTS = {"validation_rule": "wilson", "validation_stop": True}
 #: the value of a setting that a run directory of an older version does not record
 RECORDED_DEFAULTS = {"sequential": False, "validation_rule": "estimate",
                      "validation_stop": False}
@@ -90,7 +90,9 @@ class RunSettings:
         validation_candidates: validate the ranked designs in turn until one meets C_P, at
             most this many (>= 1).
         validation_rule: how a validation meets C_P, one of
-            :data:`~optimizer.cases.VALIDATION_RULES`.
+            :data:`~optimizer.cases.VALIDATION_RULES`, or None (module docstring: "wilson"
+            for a new run, a resumed run keeps its own, "estimate" if it predates the
+            setting).
         validation_stop: end a failing validation at the failure that decides it, or None
             (module docstring).
         sequential: stop sampling a design once its feasibility is decided.
@@ -111,7 +113,7 @@ class RunSettings:
     sample_seed: int = 1
     validation_seed: int = 0
     validation_candidates: int = 1
-    validation_rule: str | None = "estimate"
+    validation_rule: str | None = None
     validation_stop: bool | None = None
     sequential: bool = True
     min_probability: float | None = 0.5

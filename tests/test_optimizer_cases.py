@@ -36,7 +36,8 @@ from tethernet_ros.montecarlo import EpisodeBackend, InProcessBackend, sample_se
 ROOT = Path(__file__).resolve().parent.parent
 FAST = {"n_restarts_gp": 0, "n_candidates": 2000}
 SHORT = {"settle_time": 2.0, "horizon": 15.0, "success_cqi": 1.0e6, "success_locked_pairs": 0}
-TINY = dict(seed_points=3, iterations=2, samples=3, validation_samples=3)
+TINY = dict(seed_points=3, iterations=2, samples=3, validation_samples=3,
+            validation_rule="estimate")
 
 
 # ----------------------------------------------------------------- case definitions
@@ -169,7 +170,7 @@ def _strip_wall(lines):
 @pytest.mark.parametrize("sequential", [True, False])
 def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequential):
     kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
-              optimizer_options=FAST, sequential=sequential)
+              optimizer_options=FAST, sequential=sequential, validation_rule="estimate")
     full_be = SyntheticBackend()
     full = optimize_design("mass", backend=full_be, run_dir=tmp_path / "full", **kw)
     assert full["best_design"] is not None and full["validation"]["samples"] == 20
@@ -217,7 +218,7 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     validates the next ones in order of m_a until one meets C_P (here the fifth).
     Resuming the K = 1 run with K = 6 reuses its validation and gives the same result."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_stop=False)
+              optimizer_options=FAST, validation_stop=False, validation_rule="estimate")
     one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
     assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
@@ -263,7 +264,8 @@ def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_p
     a run chosen by the estimate rule with the Wilson rule reuses every validation done,
     rejects a chosen design whose interval reaches below C_P and validates further ones."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_candidates=6, validation_stop=False)
+              optimizer_options=FAST, validation_candidates=6, validation_stop=False,
+              validation_rule="estimate")
     est = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r", **kw)
     assert est["validation_rule"] == "estimate"
     be = SyntheticBackend()
@@ -285,7 +287,7 @@ def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_p
     assert "by the lower end of its Wilson 95 % interval" in text
     with pytest.raises(RunError, match="validation_rule"):
         optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "bad",
-                        validation_rule="lower", **kw)
+                        **{**kw, "validation_rule": "lower"})
 
 
 def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
@@ -295,7 +297,7 @@ def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
     gets every sample, and the table says where a validation stopped.  A run recorded
     without it (older runs) keeps its full validations on resume."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_candidates=6)
+              optimizer_options=FAST, validation_candidates=6, validation_rule="estimate")
     full = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "full",
                            validation_stop=False, **kw)
     stop = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "stop", **kw)
@@ -337,6 +339,50 @@ def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
     assert [r["validation"]["samples"] for r in again["table"]] == [200] * len(again["table"])
 
 
+def test_wilson_rule_is_the_default_for_new_runs_only(tmp_path):
+    """A new run validates by the Wilson rule unless told otherwise, and a failing
+    validation then stops at the failure that decides it by that rule (at 200 samples and
+    98 %: the first); a run recorded with the estimate rule, or from before the rule was
+    recorded, keeps the estimate rule when resumed; too few validation samples for the
+    Wilson rule are refused, naming the least that can meet it."""
+    kw = dict(iterations=4, seed_points=6, samples=3, validation_samples=200,
+              optimizer_options=FAST, validation_candidates=3)
+    new = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "new", **kw)
+    assert new["validation_rule"] == "wilson"
+    assert json.loads((tmp_path / "new" / "run.json").read_text())["validation_rule"] == "wilson"
+    for r in new["table"]:
+        v = r["validation"]
+        assert v["meets_requirement"] == (v["wilson"][0] >= 0.98)
+        if not v["meets_requirement"]:
+            assert v["stopped"] and v["samples"] - v["successes"] == 1
+    est = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "est",
+                          validation_rule="estimate", **kw)
+    assert est["validation_rule"] == "estimate"
+    again = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "est",
+                            resume=True, **kw)
+    assert again["validation_rule"] == "estimate"
+    assert again["best_evaluation"] == est["best_evaluation"]
+    settings_file = tmp_path / "new" / "run.json"        # a run from before the setting
+    saved = json.loads(settings_file.read_text())
+    del saved["validation_rule"]
+    settings_file.write_text(json.dumps(saved))
+    old = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "new",
+                          resume=True, **kw)
+    assert old["validation_rule"] == "estimate"
+    with pytest.raises(RunError, match="validation_samples: got 188; must be 0 or at least 189"):
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "few",
+                        **{**kw, "validation_samples": 188})
+    assert optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "few",
+                           **{**kw, "validation_samples": 189})["validation_rule"] == "wilson"
+
+
+def test_help_names_the_default_validation_rule(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["optimize", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "Default: wilson for a new run; on --resume, as the run recorded it" in text
+
+
 def full_design(summary, evaluation):
     """The design dict of ``evaluation`` in a run's table."""
     return next(r["x"] for r in summary["table"] if r["evaluation"] == evaluation)
@@ -370,7 +416,7 @@ def cli_run(tmp_path_factory, short_yaml):
     out = subprocess.run(
         [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "mass",
          "--seed-points", "3", "--iterations", "2", "--samples", "3", "--validation-samples", "3",
-         "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
+         "--validation-rule", "estimate", "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
          "--gp-restarts", "0", "--candidates", "2000", "--json"],
         capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
@@ -465,6 +511,8 @@ def test_real_run_killed_mid_design_resumes_to_the_same_result(cli_run, tmp_path
     (["--keep-bags"], "--keep-bags only applies with --via ros"),
     (["--config", "/nonexistent/x.yaml"], "does not exist"),
     (["--noise-scale", "speed"], "expected SOURCE=FACTOR"),
+    (["--validation-samples", "100"],
+     "--validation-samples 100: must be 0 or at least 189 under --validation-rule 'wilson'"),
 ])
 def test_cli_bad_arguments_one_line(argv, message, capsys, tmp_path):
     code = cli.main(["optimize", "--case", "time", "--run-dir", str(tmp_path / "r"), *argv])

@@ -53,9 +53,11 @@ def add_arguments(p):
                         "candidates)")
     p.add_argument("--validation-rule", choices=("estimate", "wilson"),
                    default=d.validation_rule,
-                   help="how a validation meets P*_s >= 0.98: by its estimate (default, the "
-                        "source's test) or by the lower end of its Wilson 95 %% interval (may "
-                        "change on --resume)")
+                   help="how a validation meets P*_s >= 0.98: by the lower end of its Wilson "
+                        "95 %% interval (wilson: 989 of 1000) or by its estimate (estimate: "
+                        "980 of 1000, the source's test).  Default: wilson for a new run; on "
+                        "--resume, as the run recorded it (estimate for runs that predate "
+                        "the option); may change on --resume")
     p.add_argument("--validation-stop", action=argparse.BooleanOptionalAction, default=None,
                    help="end a validation at the failure that decides it misses 0.98 (e.g. "
                         "the 21st of 1000; the chosen design always gets every sample). "
@@ -267,6 +269,8 @@ def run(args) -> int:
         summary = optimize_design(
             case, settings=run_settings(args), backend=backend, run_dir=run_dir,
             resume=args.resume, config=config, noise_model=model, progress=bar)
+    except SettingError as exc:
+        raise UserError(exc.with_flags()) from None
     except (RunError, CheckpointError) as exc:
         raise UserError(str(exc)) from None
     finally:
