@@ -35,7 +35,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
             used[body] += 1
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
-    params = kn.Params(dt=dt, close_force=0.0, close_threshold=1e9, lock_dist=1.0,
+    params = kn.Params(dt=dt, close_force=0.0, lock_dist=1.0,
                        mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
                        contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
                        omega_contact=cfg.contact_frequency,
@@ -64,4 +64,5 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
         params=params, events=kn.new_events(closing_armed=False, tether_locked=True),
         solver=kn.new_solver(0, nl, nb, 0),
         dt=dt, stable_step=dt, net_nodes=np.arange(nb, dtype=np.int64),
-        corner_bodies=np.zeros(0, dtype=np.int64))
+        corner_bodies=np.zeros(0, dtype=np.int64), close_threshold=1e9,
+        iterations=cfg.implicit_iterations)

@@ -30,7 +30,8 @@ class CaptureSimulation:
         self.s = scenario
         self.cfg = scenario.config
         self.dt = scenario.dt
-        self.diag = kn.new_diagnostics()
+        self.model, self.data = scenario.kernel()
+        self.scratch = kn.new_scratch(self.model, 1)
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
@@ -70,24 +71,21 @@ class CaptureSimulation:
         """Advance ``n_steps`` integration steps (mutates the scenario arrays)."""
         if n_steps <= 0:
             return
-        s = self.s
+        model = self.s.kernel()[0]   # set_params may have rebuilt it
         if self.cfg.integrator == "implicit":
-            kn.advance_implicit(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether,
-                                s.target_body, s.params, s.events, self.diag, s.solver,
-                                self.cfg.implicit_iterations)
+            kn.advance_implicit(model, self.data, self.scratch, n_steps)
         else:
-            kn.advance(n_steps, s.bodies, s.grid, s.links, s.drawstring, s.tether,
-                       s.target_body, s.params, s.events, self.diag)
+            kn.advance_explicit(model, self.data, self.scratch, n_steps)
 
     @property
     def contact_count(self) -> int:
         """Body-steps spent in contact with the target so far."""
-        return int(self.diag.contact_count[0])
+        return int(self.data.contact_count[0])
 
     @property
     def max_penetration(self) -> float:
         """Deepest penetration of a body into the target so far (m)."""
-        return float(self.diag.max_penetration[0])
+        return float(self.data.max_penetration[0])
 
     def divergence(self) -> str:
         """'' if the state is sound, else why the simulation diverged."""

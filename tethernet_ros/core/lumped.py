@@ -211,12 +211,12 @@ def contact_spheres(cfg: SimConfig, lay: BodyLayout, th: Threads, mass: np.ndarr
     return radius, contact, k_contact, c_contact
 
 
-def kernel_params(design: Design, cfg: SimConfig, th: Threads, closing_displacement: float,
-                  target_bound: float, omega_1: float) -> kn.Params:
+def kernel_params(design: Design, cfg: SimConfig, th: Threads, target_bound: float,
+                  omega_1: float) -> kn.Params:
     """The kernel's scalar parameters (``kernel.Params``), the step left at 0."""
     return kn.Params(
         dt=0.0, close_force=cfg.closing_force_factor * design.m_c * design.L_n,
-        close_threshold=float(closing_displacement), lock_dist=cfg.lock_distance,
+        lock_dist=cfg.lock_distance,
         mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
         contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
         omega_contact=cfg.contact_frequency,

@@ -5,7 +5,7 @@ structure-of-arrays initial state the kernels integrate.  The body layout is in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -68,12 +68,16 @@ def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
 
 @dataclass
 class Scenario:
-    """One episode's state in the kernel's named structures (mutated in place by the
-    kernels), with the design, configuration and target it was built from.  ``solver``
-    holds the implicit method's warm start.
+    """One episode as named parts (``kernel.state``), with the design, configuration and
+    target it was built from.  ``solver`` holds the implicit method's warm start.
 
     dt: integration step (s); stable_step: the explicit method's stable step (s);
-    net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices).
+    net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices);
+    close_threshold: the z_rel (m) that starts closing.
+
+    :meth:`kernel` builds the kernel's Model and one-lane Data from the parts, and rebinds
+    every array a step changes to a view of that lane: from then on the parts show the
+    episode as the kernel advances it.
     """
 
     design: Design
@@ -92,6 +96,9 @@ class Scenario:
     stable_step: float
     net_nodes: np.ndarray
     corner_bodies: np.ndarray
+    close_threshold: float = 0.0
+    iterations: int = 4
+    _kernel: tuple | None = field(default=None, repr=False, compare=False)
 
     @property
     def n_bodies(self) -> int:
@@ -100,6 +107,44 @@ class Scenario:
     def set_params(self, **changes) -> None:
         """Replace model parameters (kernel Params fields) before or between steps."""
         self.params = self.params._replace(**changes)
+        if self._kernel is not None:
+            self._kernel = (self._build_model(), self._kernel[1])
+
+    def _build_model(self) -> kn.Model:
+        from .kernel.model import build_model
+        return build_model(self.bodies, self.grid, self.links, self.drawstring, self.tether,
+                           self.target_body, self.params, self.iterations)
+
+    def kernel(self) -> tuple[kn.Model, kn.Data]:
+        """The kernel's (Model, Data with one lane) of this episode, built on first call;
+        the parts are then views of lane 0 of the Data."""
+        if self._kernel is None:
+            from .kernel.data import one_lane
+            data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
+                            self.close_threshold, self.events, self.solver)
+            self._kernel = (self._build_model(), data)
+            self._bind(data)
+        return self._kernel
+
+    def _bind(self, data: kn.Data) -> None:
+        """Rebind the parts' changing arrays to views of lane 0 of ``data``."""
+        bd, ln, rg, tg, ws = data.bodies, data.links, data.ring, data.target, data.warm
+        self.bodies = self.bodies._replace(x=bd.x[:, :, 0], v=bd.v[:, :, 0], w=bd.w[:, 0],
+                                           mass=bd.mass[:, 0],
+                                           contact_mask=bd.contact_mask[:, 0],
+                                           c_contact=bd.c_contact[:, 0])
+        self.links = self.links._replace(rest=ln.rest[:, 0], k=ln.k[:, 0], c=ln.c[:, 0],
+                                         active=ln.active[:, 0])
+        self.drawstring = self.drawstring._replace(locked=rg.locked[:, 0],
+                                                   maxdist=rg.maxdist[:, 0],
+                                                   lock_step=rg.lock_step[:, 0])
+        self.target_body = self.target_body._replace(pos=tg.pos[:, 0], quat=tg.quat[:, 0],
+                                                     vel=tg.vel[:, 0], omega=tg.omega[:, 0],
+                                                     ang_mom=tg.ang_mom[:, 0])
+        self.events = data.events[:, 0]
+        self.solver = kn.Solver(grid_ph=ws.grid_ph[..., 0], grid_pv=ws.grid_pv[..., 0],
+                                link_p=ws.link_p[:, 0], contact_pn=ws.contact_pn[:, 0],
+                                contact_pt=ws.contact_pt[..., 0], lock_p=ws.lock_p[:, 0])
 
     def threads(self):
         """Every thread, grid and other: (pairs (T, 2), rest (m), k (N/m), c (N s/m),
@@ -179,8 +224,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
             quat=rotation_quaternion(world.rotation, world.rotation_axis),
             vel=np.zeros(3), omega=np.zeros(3), ang_mom=np.zeros(3), inertia=target.inertia.copy(),
             cyl=target.cylinder(), verts=verts, offsets=offsets),
-        params=kernel_params(design, cfg, th, actions.closing_displacement,
-                             target.bounding_radius, omega_1),
+        params=kernel_params(design, cfg, th, target.bounding_radius, omega_1),
+        close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),
         solver=kn.new_solver(n, len(other.pairs), nb, len(ring_pairs)), dt=0.0,
         stable_step=0.0, net_nodes=net_nodes, corner_bodies=lay.corner_bodies,

@@ -19,17 +19,22 @@ from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def contact_forces(wk, bodies, target, prm, diag):
-    """Add the contact forces to wk.FX..; return the force (fx, fy, fz) and torque about
-    its CoM (tx, ty, tz) on the target, in the world frame.  wk.R must hold the target's
-    rotation matrix."""
-    X, Y, Z, VX, VY, VZ = wk.X, wk.Y, wk.Z, wk.VX, wk.VY, wk.VZ
-    R = wk.R
-    mass = bodies.mass
-    radius = bodies.radius
-    tgt_pos = target.pos
-    tgt_vel = target.vel
-    ox, oy, oz = target.omega[0], target.omega[1], target.omega[2]
+def contact_forces(model, data, scr, l):
+    """Add lane l's contact forces to scr.F; return the force (fx, fy, fz) and torque about
+    its CoM (tx, ty, tz) on the target, in the world frame.  scr.R[:, :, l] must hold the
+    target's rotation matrix."""
+    b_ = data.bodies
+    x = b_.x
+    v = b_.v
+    F = scr.F
+    R = scr.R
+    mass = b_.mass
+    radius = model.bodies.radius
+    tg = data.target
+    prm = model.params
+    ox, oy, oz = tg.omega[0, l], tg.omega[1, l], tg.omega[2, l]
+    tpx, tpy, tpz = tg.pos[0, l], tg.pos[1, l], tg.pos[2, l]
+    tvx, tvy, tvz = tg.vel[0, l], tg.vel[1, l], tg.vel[2, l]
     dt = prm.dt
     mu = prm.mu
     om_c = prm.omega_contact
@@ -43,61 +48,62 @@ def contact_forces(wk, bodies, target, prm, diag):
     tx_t = 0.0
     ty_t = 0.0
     tz_t = 0.0
-    for i in range(X.shape[0]):
-        if bodies.contact_mask[i] == 0 or bodies.w[i] == 0.0:
+    for i in range(x.shape[0]):
+        if b_.contact_mask[i, l] == 0 or b_.w[i, l] == 0.0:
             continue
-        rx = X[i] - tgt_pos[0]
-        ry = Y[i] - tgt_pos[1]
-        rz = Z[i] - tgt_pos[2]
+        rx = x[i, 0, l] - tpx
+        ry = x[i, 1, l] - tpy
+        rz = x[i, 2, l] - tpz
         rb = bound + radius[i]
         if rx * rx + ry * ry + rz * rz > rb * rb:
-            if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
-                bodies.contact_mask[i] = CONTACT_ON
+            if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
+                b_.contact_mask[i, l] = CONTACT_ON
             continue
-        bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
-        by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
-        bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
-        sd, nbx, nby, nbz = local_sdf(bx, by, bz, target.cyl, target.verts, target.offsets)
+        bx = R[0, 0, l] * rx + R[1, 0, l] * ry + R[2, 0, l] * rz
+        by = R[0, 1, l] * rx + R[1, 1, l] * ry + R[2, 1, l] * rz
+        bz = R[0, 2, l] * rx + R[1, 2, l] * ry + R[2, 2, l] * rz
+        sd, nbx, nby, nbz = local_sdf(bx, by, bz, model.target.cyl, model.target.verts,
+                                      model.target.offsets)
         delta = radius[i] - sd
-        if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+        if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
             if delta > 0.0:
                 continue
-            bodies.contact_mask[i] = CONTACT_ON
+            b_.contact_mask[i, l] = CONTACT_ON
         if delta <= 0.0:
             continue
-        if delta > diag.max_penetration[0]:
-            diag.max_penetration[0] = delta
-        nx = R[0, 0] * nbx + R[0, 1] * nby + R[0, 2] * nbz
-        ny = R[1, 0] * nbx + R[1, 1] * nby + R[1, 2] * nbz
-        nz = R[2, 0] * nbx + R[2, 1] * nby + R[2, 2] * nbz
+        if delta > data.max_penetration[l]:
+            data.max_penetration[l] = delta
+        nx = R[0, 0, l] * nbx + R[0, 1, l] * nby + R[0, 2, l] * nbz
+        ny = R[1, 0, l] * nbx + R[1, 1, l] * nby + R[1, 2, l] * nbz
+        nz = R[2, 0, l] * nbx + R[2, 1, l] * nby + R[2, 2, l] * nbz
         # velocity relative to the target's material point at the body
-        vrx = VX[i] - (tgt_vel[0] + oy * rz - oz * ry)
-        vry = VY[i] - (tgt_vel[1] + oz * rx - ox * rz)
-        vrz = VZ[i] - (tgt_vel[2] + ox * ry - oy * rx)
+        vrx = v[i, 0, l] - (tvx + oy * rz - oz * ry)
+        vry = v[i, 1, l] - (tvy + oz * rx - ox * rz)
+        vrz = v[i, 2, l] - (tvz + ox * ry - oy * rx)
         vn = vrx * nx + vry * ny + vrz * nz
         if prm.contact_model == CONTACT_FREQUENCY:
-            Fn = mass[i] * (k_c_unit * delta - c_c_unit * vn)
+            Fn = mass[i, l] * (k_c_unit * delta - c_c_unit * vn)
         else:
-            Fn = bodies.k_contact[i] * delta - bodies.c_contact[i] * vn
+            Fn = model.bodies.k_contact[i] * delta - b_.c_contact[i, l] * vn
         if Fn <= 0.0:  # a contact never pulls
             continue
         n_contacts += 1
         fx = Fn * nx
         fy = Fn * ny
         fz = Fn * nz
-        tvx = vrx - vn * nx
-        tvy = vry - vn * ny
-        tvz = vrz - vn * nz
-        vt = np.sqrt(tvx * tvx + tvy * tvy + tvz * tvz)
+        ttx = vrx - vn * nx
+        tty = vry - vn * ny
+        ttz = vrz - vn * nz
+        vt = np.sqrt(ttx * ttx + tty * tty + ttz * ttz)
         if vt > 1e-12 and mu > 0.0:
-            stop = mass[i] * vt / dt
+            stop = mass[i, l] * vt / dt
             Ft = stop if stop < prm.mu_static * Fn else mu * Fn
-            fx -= Ft * tvx / vt
-            fy -= Ft * tvy / vt
-            fz -= Ft * tvz / vt
-        wk.FX[i] += fx
-        wk.FY[i] += fy
-        wk.FZ[i] += fz
+            fx -= Ft * ttx / vt
+            fy -= Ft * tty / vt
+            fz -= Ft * ttz / vt
+        F[i, 0, l] += fx
+        F[i, 1, l] += fy
+        F[i, 2, l] += fz
         # equal and opposite on the target, acting at the body's centre
         fx_t -= fx
         fy_t -= fy
@@ -105,5 +111,5 @@ def contact_forces(wk, bodies, target, prm, diag):
         tx_t -= ry * fz - rz * fy
         ty_t -= rz * fx - rx * fz
         tz_t -= rx * fy - ry * fx
-    diag.contact_count[0] += n_contacts
+    data.contact_count[l] += n_contacts
     return fx_t, fy_t, fz_t, tx_t, ty_t, tz_t

@@ -18,62 +18,70 @@ SPECULATIVE_MARGIN = 0.05
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
-    """A contact row for every body touching the target or close enough to touch it
-    within the step (speculative); warm-start impulses applied.  wk.R must hold the
-    target's rotation matrix."""
-    X, Y, Z, VX, VY, VZ = wk.X, wk.Y, wk.Z, wk.VX, wk.VY, wk.VZ
-    R = wk.R
+def prepare_contact_rows(model, data, scr, l):
+    """Lane l: a contact row for every body touching the target or close enough to touch
+    it within the step (speculative); warm-start impulses applied.  scr.R[:, :, l] must
+    hold the target's rotation matrix."""
+    b_ = data.bodies
+    x = b_.x
+    v = b_.v
+    R = scr.R
+    cr = scr.contacts
+    ws = data.warm
+    prm = model.params
     h = prm.dt
-    w = bodies.w
-    tp = target.pos
-    tv = target.vel
-    ox, oy, oz = target.omega[0], target.omega[1], target.omega[2]
+    w = b_.w
+    tg = data.target
+    tpx, tpy, tpz = tg.pos[0, l], tg.pos[1, l], tg.pos[2, l]
+    tvx, tvy, tvz = tg.vel[0, l], tg.vel[1, l], tg.vel[2, l]
+    ox, oy, oz = tg.omega[0, l], tg.omega[1, l], tg.omega[2, l]
+    radius = model.bodies.radius
     n_rows = 0
-    for i in range(X.shape[0]):
-        if bodies.contact_mask[i] == 0 or w[i] == 0.0:
-            sol.contact_pn[i] = 0.0
+    for i in range(x.shape[0]):
+        if b_.contact_mask[i, l] == 0 or w[i, l] == 0.0:
+            ws.contact_pn[i, l] = 0.0
             continue
-        rx = X[i] - tp[0]
-        ry = Y[i] - tp[1]
-        rz = Z[i] - tp[2]
+        rx = x[i, 0, l] - tpx
+        ry = x[i, 1, l] - tpy
+        rz = x[i, 2, l] - tpz
         # material velocity of the target at the body and the body's speed relative to it
-        cvx = tv[0] + oy * rz - oz * ry
-        cvy = tv[1] + oz * rx - ox * rz
-        cvz = tv[2] + ox * ry - oy * rx
-        vrel = np.sqrt((VX[i] - cvx) ** 2 + (VY[i] - cvy) ** 2 + (VZ[i] - cvz) ** 2)
-        reach = bodies.radius[i] + h * vrel + SPECULATIVE_MARGIN
+        cvx = tvx + oy * rz - oz * ry
+        cvy = tvy + oz * rx - ox * rz
+        cvz = tvz + ox * ry - oy * rx
+        vrel = np.sqrt((v[i, 0, l] - cvx) ** 2 + (v[i, 1, l] - cvy) ** 2 + (v[i, 2, l] - cvz) ** 2)
+        reach = radius[i] + h * vrel + SPECULATIVE_MARGIN
         rb = prm.tgt_bound + reach
         if rx * rx + ry * ry + rz * rz > rb * rb:
-            sol.contact_pn[i] = 0.0
-            if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
-                bodies.contact_mask[i] = CONTACT_ON
+            ws.contact_pn[i, l] = 0.0
+            if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
+                b_.contact_mask[i, l] = CONTACT_ON
             continue
-        bx = R[0, 0] * rx + R[1, 0] * ry + R[2, 0] * rz
-        by = R[0, 1] * rx + R[1, 1] * ry + R[2, 1] * rz
-        bz = R[0, 2] * rx + R[1, 2] * ry + R[2, 2] * rz
-        sd, nbx, nby, nbz = local_sdf(bx, by, bz, target.cyl, target.verts, target.offsets)
-        C = sd - bodies.radius[i]                  # gap (m), negative: penetration
-        if bodies.contact_mask[i] == CONTACT_ONCE_OUTSIDE:
+        bx = R[0, 0, l] * rx + R[1, 0, l] * ry + R[2, 0, l] * rz
+        by = R[0, 1, l] * rx + R[1, 1, l] * ry + R[2, 1, l] * rz
+        bz = R[0, 2, l] * rx + R[1, 2, l] * ry + R[2, 2, l] * rz
+        sd, nbx, nby, nbz = local_sdf(bx, by, bz, model.target.cyl, model.target.verts,
+                                      model.target.offsets)
+        C = sd - radius[i]                         # gap (m), negative: penetration
+        if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
             if C < 0.0:
-                sol.contact_pn[i] = 0.0
+                ws.contact_pn[i, l] = 0.0
                 continue
-            bodies.contact_mask[i] = CONTACT_ON
+            b_.contact_mask[i, l] = CONTACT_ON
         if C > h * vrel + SPECULATIVE_MARGIN:
-            sol.contact_pn[i] = 0.0
+            ws.contact_pn[i, l] = 0.0
             continue
-        if -C > diag.max_penetration[0]:
-            diag.max_penetration[0] = -C
-        nx = R[0, 0] * nbx + R[0, 1] * nby + R[0, 2] * nbz
-        ny = R[1, 0] * nbx + R[1, 1] * nby + R[1, 2] * nbz
-        nz = R[2, 0] * nbx + R[2, 1] * nby + R[2, 2] * nbz
+        if -C > data.max_penetration[l]:
+            data.max_penetration[l] = -C
+        nx = R[0, 0, l] * nbx + R[0, 1, l] * nby + R[0, 2, l] * nbz
+        ny = R[1, 0, l] * nbx + R[1, 1, l] * nby + R[1, 2, l] * nbz
+        nz = R[2, 0, l] * nbx + R[2, 1, l] * nby + R[2, 2, l] * nbz
         if prm.contact_model == CONTACT_FREQUENCY:
             om = prm.omega_contact
-            k = bodies.mass[i] * om * om
-            c = 2.0 * prm.zeta_contact * bodies.mass[i] * om
+            k = b_.mass[i, l] * om * om
+            c = 2.0 * prm.zeta_contact * b_.mass[i, l] * om
         else:
-            k = bodies.k_contact[i]
-            c = bodies.c_contact[i]
+            k = model.bodies.k_contact[i]
+            c = b_.c_contact[i, l]
         denom = h * k + c
         if C < 0.0 and denom > 0.0:
             b = k * C / denom
@@ -83,95 +91,105 @@ def prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag):
             g = 0.0
         # a new impact (no contact impulse last step) rebounds with the contact law's
         # restitution: the normal velocity after the step is -e times the one before
-        vn0 = (VX[i] - cvx) * nx + (VY[i] - cvy) * ny + (VZ[i] - cvz) * nz
-        if prm.restitution > 0.0 and vn0 < 0.0 and sol.contact_pn[i] == 0.0 and C < -h * vn0:
+        vn0 = (v[i, 0, l] - cvx) * nx + (v[i, 1, l] - cvy) * ny + (v[i, 2, l] - cvz) * nz
+        if (prm.restitution > 0.0 and vn0 < 0.0 and ws.contact_pn[i, l] == 0.0
+                and C < -h * vn0):
             b = prm.restitution * vn0
             g = 0.0
-        rows.crow[n_rows] = i
+        cr.bodies[n_rows, l] = i
         n_rows += 1
-        rows.cnx[i] = nx
-        rows.cny[i] = ny
-        rows.cnz[i] = nz
-        rows.cvx[i] = cvx
-        rows.cvy[i] = cvy
-        rows.cvz[i] = cvz
-        rows.cb[i] = b
-        rows.cg[i] = g
-        rows.cik[i] = 1.0 / (w[i] + g)
+        cr.normal[i, 0, l] = nx
+        cr.normal[i, 1, l] = ny
+        cr.normal[i, 2, l] = nz
+        cr.vel[i, 0, l] = cvx
+        cr.vel[i, 1, l] = cvy
+        cr.vel[i, 2, l] = cvz
+        cr.b[i, l] = b
+        cr.g[i, l] = g
+        cr.ik[i, l] = 1.0 / (w[i, l] + g)
         # warm start: last step's normal impulse, and its friction in this tangent plane
-        pt = sol.contact_pt[i]
-        pn_dot = pt[0] * nx + pt[1] * ny + pt[2] * nz
-        pt[0] -= pn_dot * nx
-        pt[1] -= pn_dot * ny
-        pt[2] -= pn_dot * nz
-        pn = sol.contact_pn[i]
-        VX[i] += w[i] * (pn * nx + pt[0])
-        VY[i] += w[i] * (pn * ny + pt[1])
-        VZ[i] += w[i] * (pn * nz + pt[2])
-    rows.n_rows[0] = n_rows
+        pt = ws.contact_pt
+        pn_dot = pt[i, 0, l] * nx + pt[i, 1, l] * ny + pt[i, 2, l] * nz
+        pt[i, 0, l] -= pn_dot * nx
+        pt[i, 1, l] -= pn_dot * ny
+        pt[i, 2, l] -= pn_dot * nz
+        pn = ws.contact_pn[i, l]
+        v[i, 0, l] += w[i, l] * (pn * nx + pt[i, 0, l])
+        v[i, 1, l] += w[i, l] * (pn * ny + pt[i, 1, l])
+        v[i, 2, l] += w[i, l] * (pn * nz + pt[i, 2, l])
+    cr.count[l] = n_rows
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def sweep_contacts(wk, rows, bodies, prm, sol):
-    """One Gauss-Seidel sweep over the contact rows: the normal impulse (pushing only),
-    then the friction impulse that stops the slip, kept if within mu_static P_n, else
-    mu P_n against the slip."""
-    VX, VY, VZ = wk.VX, wk.VY, wk.VZ
-    w = bodies.w
-    for r in range(rows.n_rows[0]):
-        i = rows.crow[r]
-        nx = rows.cnx[i]
-        ny = rows.cny[i]
-        nz = rows.cnz[i]
-        ux = VX[i] - rows.cvx[i]
-        uy = VY[i] - rows.cvy[i]
-        uz = VZ[i] - rows.cvz[i]
+def sweep_contacts(model, data, scr, l):
+    """One Gauss-Seidel sweep over lane l's contact rows: the normal impulse (pushing
+    only), then the friction impulse that stops the slip, kept if within mu_static P_n,
+    else mu P_n against the slip."""
+    v = data.bodies.v
+    w = data.bodies.w
+    cr = scr.contacts
+    ws = data.warm
+    pt = ws.contact_pt
+    prm = model.params
+    for r in range(cr.count[l]):
+        i = cr.bodies[r, l]
+        nx = cr.normal[i, 0, l]
+        ny = cr.normal[i, 1, l]
+        nz = cr.normal[i, 2, l]
+        ux = v[i, 0, l] - cr.vel[i, 0, l]
+        uy = v[i, 1, l] - cr.vel[i, 1, l]
+        uz = v[i, 2, l] - cr.vel[i, 2, l]
         vn = ux * nx + uy * ny + uz * nz
-        P = sol.contact_pn[i]
-        Pn = max(P - (vn + rows.cb[i] + rows.cg[i] * P) * rows.cik[i], 0.0)
-        sol.contact_pn[i] = Pn
+        P = ws.contact_pn[i, l]
+        Pn = max(P - (vn + cr.b[i, l] + cr.g[i, l] * P) * cr.ik[i, l], 0.0)
+        ws.contact_pn[i, l] = Pn
         dP = Pn - P
-        VX[i] += w[i] * dP * nx
-        VY[i] += w[i] * dP * ny
-        VZ[i] += w[i] * dP * nz
+        wi = w[i, l]
+        v[i, 0, l] += wi * dP * nx
+        v[i, 1, l] += wi * dP * ny
+        v[i, 2, l] += wi * dP * nz
         # friction
-        pt = sol.contact_pt[i]
         if prm.mu <= 0.0 or Pn <= 0.0:
-            VX[i] -= w[i] * pt[0]
-            VY[i] -= w[i] * pt[1]
-            VZ[i] -= w[i] * pt[2]
-            pt[0] = 0.0
-            pt[1] = 0.0
-            pt[2] = 0.0
+            v[i, 0, l] -= wi * pt[i, 0, l]
+            v[i, 1, l] -= wi * pt[i, 1, l]
+            v[i, 2, l] -= wi * pt[i, 2, l]
+            pt[i, 0, l] = 0.0
+            pt[i, 1, l] = 0.0
+            pt[i, 2, l] = 0.0
             continue
-        ux = VX[i] - rows.cvx[i]
-        uy = VY[i] - rows.cvy[i]
-        uz = VZ[i] - rows.cvz[i]
+        ux = v[i, 0, l] - cr.vel[i, 0, l]
+        uy = v[i, 1, l] - cr.vel[i, 1, l]
+        uz = v[i, 2, l] - cr.vel[i, 2, l]
         vn = ux * nx + uy * ny + uz * nz
         tx = ux - vn * nx
         ty = uy - vn * ny
         tz = uz - vn * nz
-        qx = pt[0] - tx / w[i]
-        qy = pt[1] - ty / w[i]
-        qz = pt[2] - tz / w[i]
+        qx = pt[i, 0, l] - tx / wi
+        qy = pt[i, 1, l] - ty / wi
+        qz = pt[i, 2, l] - tz / wi
         mag = np.sqrt(qx * qx + qy * qy + qz * qz)
         if mag > prm.mu_static * Pn:
             s = prm.mu * Pn / mag
             qx *= s
             qy *= s
             qz *= s
-        VX[i] += w[i] * (qx - pt[0])
-        VY[i] += w[i] * (qy - pt[1])
-        VZ[i] += w[i] * (qz - pt[2])
-        pt[0] = qx
-        pt[1] = qy
-        pt[2] = qz
+        v[i, 0, l] += wi * (qx - pt[i, 0, l])
+        v[i, 1, l] += wi * (qy - pt[i, 1, l])
+        v[i, 2, l] += wi * (qz - pt[i, 2, l])
+        pt[i, 0, l] = qx
+        pt[i, 1, l] = qy
+        pt[i, 2, l] = qz
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def contact_reaction(wk, rows, target, sol, diag):
-    """Total impulse (N s) of the contacts on the target and its moment about the target's
-    CoM (N m s), world frame: minus the impulses on the bodies, acting at their centres."""
+def contact_reaction(data, scr, l):
+    """Lane l: total impulse (N s) of the contacts on the target and its moment about the
+    target's CoM (N m s), world frame: minus the impulses on the bodies, acting at their
+    centres."""
+    x = data.bodies.x
+    cr = scr.contacts
+    ws = data.warm
+    tp = data.target.pos
     px = 0.0
     py = 0.0
     pz = 0.0
@@ -179,33 +197,33 @@ def contact_reaction(wk, rows, target, sol, diag):
     ly = 0.0
     lz = 0.0
     n_contacts = 0
-    for r in range(rows.n_rows[0]):
-        i = rows.crow[r]
-        pn = sol.contact_pn[i]
+    for r in range(cr.count[l]):
+        i = cr.bodies[r, l]
+        pn = ws.contact_pn[i, l]
         if pn > 0.0:
             n_contacts += 1
-        fx = -(pn * rows.cnx[i] + sol.contact_pt[i, 0])
-        fy = -(pn * rows.cny[i] + sol.contact_pt[i, 1])
-        fz = -(pn * rows.cnz[i] + sol.contact_pt[i, 2])
-        rx = wk.X[i] - target.pos[0]
-        ry = wk.Y[i] - target.pos[1]
-        rz = wk.Z[i] - target.pos[2]
+        fx = -(pn * cr.normal[i, 0, l] + ws.contact_pt[i, 0, l])
+        fy = -(pn * cr.normal[i, 1, l] + ws.contact_pt[i, 1, l])
+        fz = -(pn * cr.normal[i, 2, l] + ws.contact_pt[i, 2, l])
+        rx = x[i, 0, l] - tp[0, l]
+        ry = x[i, 1, l] - tp[1, l]
+        rz = x[i, 2, l] - tp[2, l]
         px += fx
         py += fy
         pz += fz
         lx += ry * fz - rz * fy
         ly += rz * fx - rx * fz
         lz += rx * fy - ry * fx
-    diag.contact_count[0] += n_contacts
+    data.contact_count[l] += n_contacts
     return px, py, pz, lx, ly, lz
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def clear_inactive_contacts(rows, sol):
-    """Forget the friction of bodies without a contact row this step."""
-    n = sol.contact_pn.shape[0]
-    for i in range(n):
-        if sol.contact_pn[i] == 0.0:
-            sol.contact_pt[i, 0] = 0.0
-            sol.contact_pt[i, 1] = 0.0
-            sol.contact_pt[i, 2] = 0.0
+def clear_inactive_contacts(data, l):
+    """Lane l: forget the friction of bodies without a contact row this step."""
+    ws = data.warm
+    for i in range(ws.contact_pn.shape[0]):
+        if ws.contact_pn[i, l] == 0.0:
+            ws.contact_pt[i, 0, l] = 0.0
+            ws.contact_pt[i, 1, l] = 0.0
+            ws.contact_pt[i, 2, l] = 0.0

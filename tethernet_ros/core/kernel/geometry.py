@@ -114,3 +114,18 @@ def quat_to_matrix_into(q, R):
     R[2, 0] = 2 * (x * z - w * y)
     R[2, 1] = 2 * (y * z + w * x)
     R[2, 2] = 1 - 2 * (x * x + y * y)
+
+
+@njit(cache=True, inline='always')
+def quat_to_matrix_lane(q, R, lane):
+    """R[:, :, lane] = rotation matrix of the unit quaternion q[:, lane] (w, x, y, z)."""
+    w, x, y, z = q[0, lane], q[1, lane], q[2, lane], q[3, lane]
+    R[0, 0, lane] = 1 - 2 * (y * y + z * z)
+    R[0, 1, lane] = 2 * (x * y - w * z)
+    R[0, 2, lane] = 2 * (x * z + w * y)
+    R[1, 0, lane] = 2 * (x * y + w * z)
+    R[1, 1, lane] = 1 - 2 * (x * x + z * z)
+    R[1, 2, lane] = 2 * (y * z - w * x)
+    R[2, 0, lane] = 2 * (x * z - w * y)
+    R[2, 1, lane] = 2 * (y * z + w * x)
+    R[2, 2, lane] = 1 - 2 * (x * x + y * y)

@@ -19,8 +19,8 @@ restitution e(zeta) (0.73 at zeta = 0.106; ``materials.kelvin_voigt_restitution`
 step, approaching at v_n) leaves the step at -e v_n, as the explicit method resolves it.
 Ratchet locks of the drawstring are rigid limits.  The closing force is an external force.
 
-The impulses are found by projected Gauss-Seidel sweeps (``Params``-independent count,
-``iterations``), warm-started from the last step's impulses (``Solver``).  The grid threads
+The impulses are found by projected Gauss-Seidel sweeps (``Model.iterations``),
+warm-started from the last step's impulses (``Data.warm``).  The grid threads
 are swept by colour (even and odd columns of x-threads, even and odd rows of y-threads):
 threads of one colour share no node, so each colour's loop has no dependence between its
 iterations.  The target is held at its velocity during the step's sweeps; the sum of the
@@ -36,74 +36,80 @@ from numba import njit
 from .contact_rows import (clear_inactive_contacts, contact_reaction, prepare_contact_rows,
                            sweep_contacts)
 from .drawstring import closing_forces
-from .explicit import closing_events
-from .geometry import quat_to_matrix_into
+from .events import closing_events
+from .geometry import quat_to_matrix_lane
 from .lock_rows import prepare_lock_rows, sweep_locks
 from .rigid import integrate_target
-from .rows import make_rows
-from .state import E_CLOSING_ACTIVE, E_TETHER_LOCKED, E_STEP, LOCK_RATCHET
+from .state import E_CLOSING_ACTIVE, E_STEP, E_TETHER_LOCKED, LOCK_RATCHET
 from .tether import pay_out_tether
-from .thread_rows import apply_gathered, prepare_thread_rows, sweep_grid, sweep_links
+from .thread_rows import (apply_gathered, prepare_grid_rows, prepare_link_rows, sweep_grid,
+                          sweep_links)
 from .threads import gather_thread_forces
-from .work import make_work, store_work
 
 
 @njit(cache=True, nogil=True, error_model='numpy')
-def advance_implicit(n_steps, bodies, grid, links, ring, tether, target, prm, ev, diag, sol,
-                     iterations):
-    """Advance the state ``n_steps`` steps of h = prm.dt in place (see the module's
-    docstring); ``iterations`` Gauss-Seidel sweeps per step.  Releases the GIL."""
+def advance_implicit(model, data, scr, n_steps):
+    """Advance every lane ``n_steps`` steps of h = model.params.dt in place (see the
+    module's docstring); ``model.iterations`` Gauss-Seidel sweeps per step.  The grid's
+    rows and sweeps run over all lanes at once (the lane loop innermost); what differs
+    between lanes (contacts, closing, locks, the tether, the target) runs lane by lane.
+    Releases the GIL."""
+    prm = model.params
     h = prm.dt
-    w = bodies.w
-    wk = make_work(bodies, grid, links, ring)
-    rows = make_rows(grid, links.pairs.shape[0], bodies.x.shape[0], ring.pairs.shape[0], w, h)
-    trigger_mass = 0.0
-    for k in range(ring.trigger_nodes.shape[0]):
-        trigger_mass += bodies.mass[ring.trigger_nodes[k]]
-    N = bodies.x.shape[0]
+    K = data.bodies.x.shape[2]
+    N = data.bodies.x.shape[0]
+    x = data.bodies.x
+    v = data.bodies.v
+    w = data.bodies.w
+    ev = data.events
+    F = scr.F
+    ratchet_model = prm.lock_model == LOCK_RATCHET
     for _ in range(n_steps):
-        quat_to_matrix_into(target.quat, wk.R)
-        # external forces: the drawstring's pull
-        if ev[E_CLOSING_ACTIVE] == 1:
+        for l in range(K):
+            quat_to_matrix_lane(data.target.quat, scr.R, l)
+            # external forces: the drawstring's pull
+            if ev[E_CLOSING_ACTIVE, l] == 1:
+                for i in range(N):
+                    F[i, 0, l] = 0.0
+                    F[i, 1, l] = 0.0
+                    F[i, 2, l] = 0.0
+                closing_forces(model, data, scr, l)
+                for i in range(N):
+                    hw = h * w[i, l]
+                    v[i, 0, l] += hw * F[i, 0, l]
+                    v[i, 1, l] += hw * F[i, 1, l]
+                    v[i, 2, l] += hw * F[i, 2, l]
+            # constraint rows, warm-started
+            prepare_contact_rows(model, data, scr, l)
+            clear_inactive_contacts(data, l)
+            prepare_link_rows(model, data, scr, l)
+        prepare_grid_rows(model, data, scr)
+        gather_thread_forces(model, scr)
+        apply_gathered(data, scr)
+        for l in range(K):
+            if ev[E_CLOSING_ACTIVE, l] == 1 and ratchet_model:
+                prepare_lock_rows(model, data, scr, l)
+        for _it in range(model.iterations):
+            sweep_grid(model, data, scr)
+            for l in range(K):
+                sweep_links(model, data, scr, l)
+                sweep_contacts(model, data, scr, l)
+                if ev[E_CLOSING_ACTIVE, l] == 1 and ratchet_model:
+                    sweep_locks(model, data, scr, l)
+        for l in range(K):
+            # the contacts' impulses and moments on the target, at the step's contact points
+            px, py, pz, lx, ly, lz = contact_reaction(data, scr, l)
+            # positions; the paid-out tether follows the winch and net centre
             for i in range(N):
-                wk.FX[i] = 0.0
-                wk.FY[i] = 0.0
-                wk.FZ[i] = 0.0
-            closing_forces(wk, ring, prm.close_force, prm.lock_model, prm.lock_dist)
-            for i in range(N):
-                hw = h * w[i]
-                wk.VX[i] += hw * wk.FX[i]
-                wk.VY[i] += hw * wk.FY[i]
-                wk.VZ[i] += hw * wk.FZ[i]
-        # constraint rows, warm-started
-        prepare_contact_rows(wk, rows, bodies, target, prm, sol, diag)
-        clear_inactive_contacts(rows, sol)
-        prepare_thread_rows(wk, rows, grid, links, w, h, sol)
-        gather_thread_forces(wk, grid, links)
-        apply_gathered(wk, w)
-        ratchet = ev[E_CLOSING_ACTIVE] == 1 and prm.lock_model == LOCK_RATCHET
-        if ratchet:
-            prepare_lock_rows(wk, rows, ring, w, h, sol)
-        for _it in range(iterations):
-            sweep_grid(wk, rows, grid, w, sol)
-            sweep_links(wk, rows, links, w, sol)
-            sweep_contacts(wk, rows, bodies, prm, sol)
-            if ratchet:
-                sweep_locks(wk, rows, ring, w, sol)
-        # the contacts' impulses and moments on the target, at the step's contact points
-        px, py, pz, lx, ly, lz = contact_reaction(wk, rows, target, sol, diag)
-        # positions; the paid-out tether follows the winch and net centre
-        for i in range(N):
-            if w[i] != 0.0:
-                wk.X[i] += h * wk.VX[i]
-                wk.Y[i] += h * wk.VY[i]
-                wk.Z[i] += h * wk.VZ[i]
-        if ev[E_TETHER_LOCKED] == 0:
-            pay_out_tether(wk, tether)
-        # the target moves under them
-        integrate_target(target, wk.R, px / h, py / h, pz / h, lx / h, ly / h, lz / h, h,
-                         prm.tgt_inv_mass, wk.Lb)
-        ev[E_STEP] += 1
-        closing_events(wk, bodies, links, ring, tether, target, prm, ev, trigger_mass)
-    store_work(wk, bodies)
+                if w[i, l] != 0.0:
+                    x[i, 0, l] += h * v[i, 0, l]
+                    x[i, 1, l] += h * v[i, 1, l]
+                    x[i, 2, l] += h * v[i, 2, l]
+            if ev[E_TETHER_LOCKED, l] == 0:
+                pay_out_tether(model, data, l)
+            # the target moves under them
+            integrate_target(model, data, scr, l, px / h, py / h, pz / h, lx / h, ly / h,
+                             lz / h, h)
+            ev[E_STEP, l] += 1
+            closing_events(model, data, l)
     return 0

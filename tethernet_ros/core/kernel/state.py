@@ -1,8 +1,9 @@
-"""The kernel's named state: a few numba-friendly structures (named tuples of arrays and
-scalars) instead of dozens of positional arrays.
+"""One episode's state and constants as named parts (named tuples of arrays and scalars):
+what a scenario is built as, and the view of one lane of a batch that single-episode code
+reads (``Scenario`` rebinds the mutable arrays to views of the kernel's ``Data``).
 
-Arrays inside the tuples are mutated in place by the kernels; the tuples themselves are
-immutable (swap a whole field with ``_replace`` outside the kernel).  Units: SI.
+The kernels themselves take a constant :mod:`model` shared by every lane and the per-lane
+:mod:`data`; :func:`model.assemble` splits these parts into them.  Units: SI.
 
 Body layout (indices into every per-body array, ``layout.BodyLayout``):
   [0, n^2)      net nodes of the n x n grid, node (i, j) = n i + j
@@ -48,8 +49,7 @@ Tether = namedtuple("Tether", "nodes links centre winch")
 #: the meridional polygons of any extra solid of revolution (verts (K, 2), offsets (P + 1,)).
 TargetBody = namedtuple("TargetBody", "pos quat vel omega ang_mom inertia cyl verts offsets")
 
-#: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair;
-#: close_threshold: z(net CoM) - z(target CoM) that starts closing (m); lock_dist (m);
+#: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair; lock_dist (m);
 #: mu, mu_static: kinetic and static Coulomb friction coefficients; contact_model (index
 #: into CONTACT_MODELS); omega_contact (rad/s), zeta_contact: contact natural frequency
 #: ("frequency" model) and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
@@ -57,7 +57,7 @@ TargetBody = namedtuple("TargetBody", "pos quat vel omega ang_mom inertia cyl ve
 #: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
 #: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
 #: restitution: the implicit method's coefficient of restitution of a new impact (0: none).
-Params = namedtuple("Params", "dt close_force close_threshold lock_dist mu mu_static "
+Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
                               "contact_model omega_contact zeta_contact tgt_inv_mass tgt_bound "
                               "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
                               "lock_model restitution")

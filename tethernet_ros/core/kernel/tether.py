@@ -11,55 +11,60 @@ from .state import CONTACT_ONCE_OUTSIDE, DAMPING_ELEMENT
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def pay_out_tether(wk, tether):
-    """Place the tether's masses on the straight line winch -> net centre, evenly, with
-    the matching interpolated velocities."""
-    X, Y, Z, VX, VY, VZ = wk.X, wk.Y, wk.Z, wk.VX, wk.VY, wk.VZ
-    wb = tether.winch
-    cn = tether.centre
-    n_tether = tether.nodes.shape[0]
+def pay_out_tether(model, data, l):
+    """Lane l: place the tether's masses on the straight line winch -> net centre, evenly,
+    with the matching interpolated velocities."""
+    x = data.bodies.x
+    v = data.bodies.v
+    te = model.tether
+    wb = te.winch
+    cn = te.centre
+    n_tether = te.nodes.shape[0]
     for k in range(n_tether):
         f = (k + 1.0) / (n_tether + 1.0)
-        t = tether.nodes[k]
-        X[t] = X[wb] + f * (X[cn] - X[wb])
-        Y[t] = Y[wb] + f * (Y[cn] - Y[wb])
-        Z[t] = Z[wb] + f * (Z[cn] - Z[wb])
-        VX[t] = VX[wb] + f * (VX[cn] - VX[wb])
-        VY[t] = VY[wb] + f * (VY[cn] - VY[wb])
-        VZ[t] = VZ[wb] + f * (VZ[cn] - VZ[wb])
+        t = te.nodes[k]
+        for c in range(3):
+            x[t, c, l] = x[wb, c, l] + f * (x[cn, c, l] - x[wb, c, l])
+        for c in range(3):
+            v[t, c, l] = v[wb, c, l] + f * (v[cn, c, l] - v[wb, c, l])
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def lock_tether(wk, bodies, links, tether, prm):
-    """The winch locks the paid-out length: the tether segments get their rest lengths
-    (the current ones), stiffness E A / l and damping, and the tether's lumped masses
-    (one segment of tether each) join the dynamics; each collides with the target once it
-    is outside it (``CONTACT_ONCE_OUTSIDE``)."""
-    X, Y, Z = wk.X, wk.Y, wk.Z
-    mass = bodies.mass
-    for k in range(tether.links.shape[0]):
-        m = tether.links[k]
-        a = links.pairs[m, 0]
-        b = links.pairs[m, 1]
-        dx = X[b] - X[a]
-        dy = Y[b] - Y[a]
-        dz = Z[b] - Z[a]
-        links.rest[m] = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
-        links.active[m] = 1
-    for k in range(tether.nodes.shape[0]):
-        t = tether.nodes[k]
-        mass[t] = prm.tether_lin_density * links.rest[tether.links[0]]
-        bodies.w[t] = 1.0 / mass[t]
-        bodies.contact_mask[t] = CONTACT_ONCE_OUTSIDE
-        bodies.c_contact[t] = 2.0 * prm.zeta_contact * np.sqrt(bodies.k_contact[t] * mass[t])
-    for k in range(tether.links.shape[0]):
-        m = tether.links[k]
-        a = links.pairs[m, 0]
-        b = links.pairs[m, 1]
-        kk = prm.tether_EA / links.rest[m]
-        links.k[m] = kk
+def lock_tether(model, data, l):
+    """Lane l: the winch locks the paid-out length: the tether segments get their rest
+    lengths (the current ones), stiffness E A / l and damping, and the tether's lumped
+    masses (one segment of tether each) join the dynamics; each collides with the target
+    once it is outside it (``CONTACT_ONCE_OUTSIDE``)."""
+    x = data.bodies.x
+    bd = data.bodies
+    ln = data.links
+    te = model.tether
+    prm = model.params
+    pairs = model.links.pairs
+    mass = bd.mass
+    for k in range(te.links.shape[0]):
+        m = te.links[k]
+        a = pairs[m, 0]
+        b = pairs[m, 1]
+        dx = x[b, 0, l] - x[a, 0, l]
+        dy = x[b, 1, l] - x[a, 1, l]
+        dz = x[b, 2, l] - x[a, 2, l]
+        ln.rest[m, l] = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
+        ln.active[m, l] = 1
+    for k in range(te.nodes.shape[0]):
+        t = te.nodes[k]
+        mass[t, l] = prm.tether_lin_density * ln.rest[te.links[0], l]
+        bd.w[t, l] = 1.0 / mass[t, l]
+        bd.contact_mask[t, l] = CONTACT_ONCE_OUTSIDE
+        bd.c_contact[t, l] = 2.0 * prm.zeta_contact * np.sqrt(model.bodies.k_contact[t] * mass[t, l])
+    for k in range(te.links.shape[0]):
+        m = te.links[k]
+        a = pairs[m, 0]
+        b = pairs[m, 1]
+        kk = prm.tether_EA / ln.rest[m, l]
+        ln.k[m, l] = kk
         if prm.thread_damping == DAMPING_ELEMENT:
-            meff = (mass[a] * mass[b]) / (mass[a] + mass[b])
-            links.c[m] = 2.0 * prm.zeta_thread * np.sqrt(kk * meff)
+            meff = (mass[a, l] * mass[b, l]) / (mass[a, l] + mass[b, l])
+            ln.c[m, l] = 2.0 * prm.zeta_thread * np.sqrt(kk * meff)
         else:
-            links.c[m] = 2.0 * prm.zeta_thread * kk / prm.omega_1
+            ln.c[m, l] = 2.0 * prm.zeta_thread * kk / prm.omega_1

@@ -2,18 +2,20 @@
 threads (corner threads, tether) as tension-only compliant constraints on their length,
 their rows at the start of a step (with the last step's impulses as warm start) and one
 projected Gauss-Seidel sweep over them.  The grid is swept by colour (module docstring of
-``implicit``).  Units: SI (m, s, kg, N s).
+``implicit``); every grid loop runs over all lanes side by side, its innermost loop the
+lane loop (contiguous, independent: SIMD across episodes).  Units: SI (m, s, kg, N s).
 """
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
 
+from .scratch import RB, RG, RIK, RX, RY, RZ
+
 
 @njit(cache=True, inline='always')
 def _thread_row(dx, dy, dz, rest, k, c, wsum, h):
-    """Direction, bias, compliance and inverse effective mass of one thread row
-    (branch-free, so that the grid loops vectorise)."""
+    """Direction, bias, compliance and inverse effective mass of one thread row."""
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     inv = 1.0 / max(length, 1e-12)
     C = length - rest
@@ -28,211 +30,181 @@ def _thread_row(dx, dy, dz, rest, k, c, wsum, h):
 
 
 @njit(cache=True, inline='always')
-def _grid_row(dx, dy, dz, rest, kd, gd, ikt, iks, inv_h):
-    """A grid thread's row from its per-call constants: direction, bias, compliance and
-    inverse effective mass (branch-free)."""
-    length = np.sqrt(dx * dx + dy * dy + dz * dz)
-    inv = 1.0 / max(length, 1e-12)
-    C = length - rest
-    taut = C > 0.0
-    b = kd * C if taut else C * inv_h
-    g = gd if taut else 0.0
-    ik = ikt if taut else iks
-    return dx * inv, dy * inv, dz * inv, b, g, ik
+def _grid_row(rows, a, b, x, rest, const, inv_h, P, U, u):
+    """Row of the grid thread from body a to body b in every lane, from its constants
+    ``const`` (k / (h k + c), 1 / (h (h k + c)), taut and slack inverse effective mass);
+    and its last impulse P (per lane) along its new direction into U[u] (on b; -U on a)."""
+    K = x.shape[2]
+    kd = const[0]
+    gd = const[1]
+    ikt = const[2]
+    iks = const[3]
+    for l in range(K):
+        dx = x[b, 0, l] - x[a, 0, l]
+        dy = x[b, 1, l] - x[a, 1, l]
+        dz = x[b, 2, l] - x[a, 2, l]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        inv = 1.0 / max(length, 1e-12)
+        C = length - rest
+        taut = C > 0.0
+        nx = dx * inv
+        ny = dy * inv
+        nz = dz * inv
+        rows[RX, l] = nx
+        rows[RY, l] = ny
+        rows[RZ, l] = nz
+        rows[RB, l] = kd * C if taut else C * inv_h
+        rows[RG, l] = gd if taut else 0.0
+        rows[RIK, l] = ikt if taut else iks
+        # the impulse P n on the second end (P < 0: tension), -P n on the first
+        U[u, 0, l] = -P[l] * nx
+        U[u, 1, l] = -P[l] * ny
+        U[u, 2, l] = -P[l] * nz
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def prepare_thread_rows(wk, rows, grid, links, w, h, sol):
-    """Rows of every grid thread and active other thread at the start of the step, and the
-    last step's impulses along this step's directions, in the explicit method's force
-    layout (wk.HX.., UX.., EF as impulses): ``gather_thread_forces`` then sums them."""
-    ng = grid.n
-    inv_h = 1.0 / h
-    X, Y, Z = wk.X, wk.Y, wk.Z
+def prepare_grid_rows(model, data, scr):
+    """Rows of every grid thread at the start of the step, in every lane, and the last
+    step's impulses along this step's directions in the explicit method's force layout
+    (scr.H, scr.U as impulses): ``gather_thread_forces`` then sums them."""
+    g = model.grid
+    ng = g.n
+    inv_h = 1.0 / model.params.dt
+    x = data.bodies.x
+    ws = data.warm
     for i in range(ng):
-        r0 = i * ng
-        xr = X[r0:r0 + ng]
-        yr = Y[r0:r0 + ng]
-        zr = Z[r0:r0 + ng]
-        nxr = rows.hnx[i]
-        nyr = rows.hny[i]
-        nzr = rows.hnz[i]
-        br = rows.hb[i]
-        gr = rows.hg[i]
-        ikr = rows.hik[i]
-        pr = sol.grid_ph[i]
-        h0 = i * (ng + 1)
-        hx = wk.HX[h0:h0 + ng + 1]
-        hy = wk.HY[h0:h0 + ng + 1]
-        hz = wk.HZ[h0:h0 + ng + 1]
-        kd = rows.hkd[i]
-        gd = rows.hgd[i]
-        ikt = rows.hikt[i]
-        iks = rows.hiks[i]
         for j in range(ng - 1):
-            nx, ny, nz, b, g, ik = _grid_row(xr[j + 1] - xr[j], yr[j + 1] - yr[j],
-                                             zr[j + 1] - zr[j], grid.rest, kd[j], gd[j], ikt[j],
-                                             iks[j], inv_h)
-            nxr[j] = nx
-            nyr[j] = ny
-            nzr[j] = nz
-            br[j] = b
-            gr[j] = g
-            ikr[j] = ik
-            # the impulse P n on the second end (P < 0: tension), -P n on the first
-            hx[j + 1] = -pr[j] * nx
-            hy[j + 1] = -pr[j] * ny
-            hz[j + 1] = -pr[j] * nz
+            a = i * ng + j
+            _grid_row(scr.grid_h[i, j], a, a + 1, x, g.rest, g.hconst[i, j], inv_h,
+                      ws.grid_ph[i, j], scr.H, i * (ng + 1) + j + 1)
     for i in range(ng - 1):
-        r0 = i * ng
-        r1 = r0 + ng
-        nxr = rows.vnx[i]
-        nyr = rows.vny[i]
-        nzr = rows.vnz[i]
-        br = rows.vb[i]
-        gr = rows.vg[i]
-        ikr = rows.vik[i]
-        pr = sol.grid_pv[i]
-        ux = wk.UX[r1:r1 + ng]
-        uy = wk.UY[r1:r1 + ng]
-        uz = wk.UZ[r1:r1 + ng]
-        xa = X[r0:r0 + ng]
-        ya = Y[r0:r0 + ng]
-        za = Z[r0:r0 + ng]
-        xb = X[r1:r1 + ng]
-        yb = Y[r1:r1 + ng]
-        zb = Z[r1:r1 + ng]
-        kd = rows.vkd[i]
-        gd = rows.vgd[i]
-        ikt = rows.vikt[i]
-        iks = rows.viks[i]
         for j in range(ng):
-            nx, ny, nz, b, g, ik = _grid_row(xb[j] - xa[j], yb[j] - ya[j], zb[j] - za[j],
-                                             grid.rest, kd[j], gd[j], ikt[j], iks[j], inv_h)
-            nxr[j] = nx
-            nyr[j] = ny
-            nzr[j] = nz
-            br[j] = b
-            gr[j] = g
-            ikr[j] = ik
-            ux[j] = -pr[j] * nx
-            uy[j] = -pr[j] * ny
-            uz[j] = -pr[j] * nz
-    for m in range(links.pairs.shape[0]):
-        wk.EF[m, 0] = 0.0
-        wk.EF[m, 1] = 0.0
-        wk.EF[m, 2] = 0.0
-        a = links.pairs[m, 0]
-        b_ = links.pairs[m, 1]
-        if links.active[m] == 0:
-            rows.lik[m] = 0.0
-            sol.link_p[m] = 0.0
+            a = i * ng + j
+            _grid_row(scr.grid_v[i, j], a, a + ng, x, g.rest, g.vconst[i, j], inv_h,
+                      ws.grid_pv[i, j], scr.U, a + ng)
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def prepare_link_rows(model, data, scr, l):
+    """Lane l: rows of every active other thread, and its last impulse into scr.EF."""
+    x = data.bodies.x
+    w = data.bodies.w
+    ln = data.links
+    ws = data.warm
+    rows = scr.links
+    EF = scr.EF
+    pairs = model.links.pairs
+    h = model.params.dt
+    for m in range(pairs.shape[0]):
+        EF[m, 0, l] = 0.0
+        EF[m, 1, l] = 0.0
+        EF[m, 2, l] = 0.0
+        a = pairs[m, 0]
+        b_ = pairs[m, 1]
+        if ln.active[m, l] == 0:
+            rows[m, RIK, l] = 0.0
+            ws.link_p[m, l] = 0.0
             continue
-        nx, ny, nz, b, g, ik = _thread_row(X[b_] - X[a], Y[b_] - Y[a], Z[b_] - Z[a],
-                                           links.rest[m], links.k[m], links.c[m], w[a] + w[b_], h)
-        rows.lnx[m] = nx
-        rows.lny[m] = ny
-        rows.lnz[m] = nz
-        rows.lb[m] = b
-        rows.lg[m] = g
-        rows.lik[m] = ik
-        wk.EF[m, 0] = -sol.link_p[m] * nx
-        wk.EF[m, 1] = -sol.link_p[m] * ny
-        wk.EF[m, 2] = -sol.link_p[m] * nz
+        nx, ny, nz, b, g, ik = _thread_row(x[b_, 0, l] - x[a, 0, l], x[b_, 1, l] - x[a, 1, l],
+                                           x[b_, 2, l] - x[a, 2, l], ln.rest[m, l], ln.k[m, l],
+                                           ln.c[m, l], w[a, l] + w[b_, l], h)
+        rows[m, RX, l] = nx
+        rows[m, RY, l] = ny
+        rows[m, RZ, l] = nz
+        rows[m, RB, l] = b
+        rows[m, RG, l] = g
+        rows[m, RIK, l] = ik
+        p = ws.link_p[m, l]
+        EF[m, 0, l] = -p * nx
+        EF[m, 1, l] = -p * ny
+        EF[m, 2, l] = -p * nz
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def apply_gathered(wk, w):
-    """v += w P for the per-body impulse sums in wk.FX.. (N s)."""
-    for i in range(wk.VX.shape[0]):
-        wk.VX[i] += w[i] * wk.FX[i]
-        wk.VY[i] += w[i] * wk.FY[i]
-        wk.VZ[i] += w[i] * wk.FZ[i]
+def apply_gathered(data, scr):
+    """v += w P for the per-body impulse sums in scr.F (N s), every lane."""
+    v = data.bodies.v
+    w = data.bodies.w
+    F = scr.F
+    for i in range(v.shape[0]):
+        for c in range(3):
+            for l in range(v.shape[2]):
+                v[i, c, l] += w[i, l] * F[i, c, l]
 
 
 @njit(cache=True, inline='always')
-def _apply(wk, w, a, b, nx, ny, nz, dP):
-    """Impulse dP along n on b and -dP on a (velocities, m/s)."""
-    wk.VX[a] -= w[a] * nx * dP
-    wk.VY[a] -= w[a] * ny * dP
-    wk.VZ[a] -= w[a] * nz * dP
-    wk.VX[b] += w[b] * nx * dP
-    wk.VY[b] += w[b] * ny * dP
-    wk.VZ[b] += w[b] * nz * dP
-
-
-@njit(cache=True, inline='always')
-def _solve_row(va_x, va_y, va_z, vb_x, vb_y, vb_z, wa, wb, nx, ny, nz, b, g, ik, pr, j, ja, jb):
-    """One tension-only thread row between va[ja] and vb[jb] with impulse pr[j] (N s):
-    the projected Gauss-Seidel update."""
-    jv = nx * (vb_x[jb] - va_x[ja]) + ny * (vb_y[jb] - va_y[ja]) + nz * (vb_z[jb] - va_z[ja])
-    P = pr[j]
-    Pn = min(P - (jv + b + g * P) * ik, 0.0)
-    pr[j] = Pn
-    dP = Pn - P
-    va_x[ja] -= wa[ja] * nx * dP
-    va_y[ja] -= wa[ja] * ny * dP
-    va_z[ja] -= wa[ja] * nz * dP
-    vb_x[jb] += wb[jb] * nx * dP
-    vb_y[jb] += wb[jb] * ny * dP
-    vb_z[jb] += wb[jb] * nz * dP
+def _solve_grid_row(v, w, a, b, rows, P):
+    """The projected Gauss-Seidel update of one tension-only grid row between bodies a and
+    b, every lane, with impulse P (per lane, N s)."""
+    for l in range(v.shape[2]):
+        nx = rows[RX, l]
+        ny = rows[RY, l]
+        nz = rows[RZ, l]
+        jv = nx * (v[b, 0, l] - v[a, 0, l]) + ny * (v[b, 1, l] - v[a, 1, l]) \
+            + nz * (v[b, 2, l] - v[a, 2, l])
+        p = P[l]
+        pn = min(p - (jv + rows[RB, l] + rows[RG, l] * p) * rows[RIK, l], 0.0)
+        P[l] = pn
+        dp = pn - p
+        wa = w[a, l]
+        wb = w[b, l]
+        v[a, 0, l] -= wa * nx * dp
+        v[a, 1, l] -= wa * ny * dp
+        v[a, 2, l] -= wa * nz * dp
+        v[b, 0, l] += wb * nx * dp
+        v[b, 1, l] += wb * ny * dp
+        v[b, 2, l] += wb * nz * dp
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def sweep_grid(wk, rows, grid, w, sol):
-    """One Gauss-Seidel sweep over the grid threads, colour by colour: x-threads of even,
-    then odd columns; y-threads of even, then odd rows (threads of one colour share no
-    node)."""
-    ng = grid.n
-    VX, VY, VZ = wk.VX, wk.VY, wk.VZ
+def sweep_grid(model, data, scr):
+    """One Gauss-Seidel sweep over the grid threads of every lane, colour by colour:
+    x-threads of even, then odd columns; y-threads of even, then odd rows (threads of one
+    colour share no node)."""
+    ng = model.grid.n
+    v = data.bodies.v
+    w = data.bodies.w
+    ws = data.warm
     for colour in range(2):
         for i in range(ng):
-            r0 = i * ng
-            vx = VX[r0:r0 + ng]
-            vy = VY[r0:r0 + ng]
-            vz = VZ[r0:r0 + ng]
-            wr = w[r0:r0 + ng]
-            nxr = rows.hnx[i]
-            nyr = rows.hny[i]
-            nzr = rows.hnz[i]
-            br = rows.hb[i]
-            gr = rows.hg[i]
-            ikr = rows.hik[i]
-            pr = sol.grid_ph[i]
             for j in range(colour, ng - 1, 2):
-                _solve_row(vx, vy, vz, vx, vy, vz, wr, wr, nxr[j], nyr[j], nzr[j], br[j], gr[j],
-                           ikr[j], pr, j, j, j + 1)
+                a = i * ng + j
+                _solve_grid_row(v, w, a, a + 1, scr.grid_h[i, j], ws.grid_ph[i, j])
     for colour in range(2):
         for i in range(colour, ng - 1, 2):
-            r0 = i * ng
-            r1 = r0 + ng
-            va_x = VX[r0:r0 + ng]
-            va_y = VY[r0:r0 + ng]
-            va_z = VZ[r0:r0 + ng]
-            vb_x = VX[r1:r1 + ng]
-            vb_y = VY[r1:r1 + ng]
-            vb_z = VZ[r1:r1 + ng]
-            wa = w[r0:r0 + ng]
-            wb = w[r1:r1 + ng]
-            nxr = rows.vnx[i]
-            nyr = rows.vny[i]
-            nzr = rows.vnz[i]
-            br = rows.vb[i]
-            gr = rows.vg[i]
-            ikr = rows.vik[i]
-            pr = sol.grid_pv[i]
             for j in range(ng):
-                _solve_row(va_x, va_y, va_z, vb_x, vb_y, vb_z, wa, wb, nxr[j], nyr[j], nzr[j],
-                           br[j], gr[j], ikr[j], pr, j, j, j)
+                a = i * ng + j
+                _solve_grid_row(v, w, a, a + ng, scr.grid_v[i, j], ws.grid_pv[i, j])
+
+
+@njit(cache=True, inline='always')
+def solve_pair_row(v, w, a, b, nx, ny, nz, bias, g, ik, P, j, l):
+    """One tension-only (or one-sided) row between bodies a and b of lane l with impulse
+    P[j, l] (N s): the projected Gauss-Seidel update."""
+    jv = nx * (v[b, 0, l] - v[a, 0, l]) + ny * (v[b, 1, l] - v[a, 1, l]) \
+        + nz * (v[b, 2, l] - v[a, 2, l])
+    p = P[j, l]
+    pn = min(p - (jv + bias + g * p) * ik, 0.0)
+    P[j, l] = pn
+    dp = pn - p
+    v[a, 0, l] -= w[a, l] * nx * dp
+    v[a, 1, l] -= w[a, l] * ny * dp
+    v[a, 2, l] -= w[a, l] * nz * dp
+    v[b, 0, l] += w[b, l] * nx * dp
+    v[b, 1, l] += w[b, l] * ny * dp
+    v[b, 2, l] += w[b, l] * nz * dp
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def sweep_links(wk, rows, links, w, sol):
-    """One Gauss-Seidel sweep over the other threads (corner threads, tether)."""
-    VX, VY, VZ = wk.VX, wk.VY, wk.VZ
-    for m in range(links.pairs.shape[0]):
-        if rows.lik[m] == 0.0:
+def sweep_links(model, data, scr, l):
+    """One Gauss-Seidel sweep over lane l's other threads (corner threads, tether)."""
+    v = data.bodies.v
+    w = data.bodies.w
+    rows = scr.links
+    pairs = model.links.pairs
+    for m in range(pairs.shape[0]):
+        if rows[m, RIK, l] == 0.0:
             continue
-        _solve_row(VX, VY, VZ, VX, VY, VZ, w, w, rows.lnx[m], rows.lny[m], rows.lnz[m],
-                   rows.lb[m], rows.lg[m], rows.lik[m], sol.link_p, m, links.pairs[m, 0],
-                   links.pairs[m, 1])
+        solve_pair_row(v, w, pairs[m, 0], pairs[m, 1], rows[m, RX, l], rows[m, RY, l],
+                       rows[m, RZ, l], rows[m, RB, l], rows[m, RG, l], rows[m, RIK, l],
+                       data.warm.link_p, m, l)

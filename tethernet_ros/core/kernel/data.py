@@ -1,0 +1,112 @@
+"""The kernel's per-lane data: everything a step changes, for K episodes of one model side
+by side (MuJoCo's mjData, with a lane axis).  Every array has the lane as its last axis,
+so that a loop over lanes is a contiguous, independent inner loop (SIMD across episodes).
+
+Lane l of every array is one episode; lanes never read each other, so an episode gives
+the same bits in any lane of any batch, and a batch of one is a single episode.
+Units: SI (m, s, kg, N s).
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .state import N_EV
+
+#: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
+#: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (state.CONTACT_*);
+#: c_contact (N, K): contact damping (N s/m).  Mass, w, contact of the tether's lumped
+#: masses change when the winch locks.
+BodyData = namedtuple("BodyData", "x v w mass contact_mask c_contact")
+
+#: Other threads (M, K): rest length (m), stiffness (N/m), damping (N s/m), active (uint8);
+#: the tether's segments get theirs when the winch locks.
+LinkData = namedtuple("LinkData", "rest k c active")
+
+#: Drawstring pairs (P, K): locked (uint8), the ratchet's maximum distance (m), the step
+#: of locking (-1 before).
+RingData = namedtuple("RingData", "locked maxdist lock_step")
+
+#: The target: pos, vel, omega (world angular velocity, rad/s), ang_mom (world angular
+#: momentum about the CoM, kg m^2/s) (3, K); quat (4, K) body -> world (w, x, y, z).
+TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom")
+
+#: The implicit method's impulses of the last step (N s), its warm start: grid_ph
+#: (n, n - 1, K), grid_pv (n - 1, n, K), link_p (M, K) (negative: tension), contact_pn
+#: (N, K) (>= 0), contact_pt (N, 3, K) friction, lock_p (P, K).
+WarmStart = namedtuple("WarmStart", "grid_ph grid_pv link_p contact_pn contact_pt lock_p")
+
+#: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the z_rel (m) that
+#: starts closing; contact_count (K,): body-steps in contact; max_penetration (K,) (m).
+Data = namedtuple("Data", "bodies links ring target warm events close_threshold "
+                          "contact_count max_penetration")
+
+
+def _lanes(a, dtype=np.float64) -> np.ndarray:
+    """A one-lane array of ``a`` (lane axis appended)."""
+    return np.ascontiguousarray(np.asarray(a, dtype=dtype)[..., None])
+
+
+def one_lane(bodies, links, drawstring, target_body, close_threshold: float, events,
+             solver) -> Data:
+    """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero)."""
+    return Data(
+        bodies=BodyData(x=_lanes(bodies.x), v=_lanes(bodies.v), w=_lanes(bodies.w),
+                        mass=_lanes(bodies.mass), contact_mask=_lanes(bodies.contact_mask, np.uint8),
+                        c_contact=_lanes(bodies.c_contact)),
+        links=LinkData(rest=_lanes(links.rest), k=_lanes(links.k), c=_lanes(links.c),
+                       active=_lanes(links.active, np.uint8)),
+        ring=RingData(locked=_lanes(drawstring.locked, np.uint8),
+                      maxdist=_lanes(drawstring.maxdist),
+                      lock_step=_lanes(drawstring.lock_step, np.int64)),
+        target=TargetData(pos=_lanes(target_body.pos), quat=_lanes(target_body.quat),
+                          vel=_lanes(target_body.vel), omega=_lanes(target_body.omega),
+                          ang_mom=_lanes(target_body.ang_mom)),
+        warm=WarmStart(grid_ph=_lanes(solver.grid_ph), grid_pv=_lanes(solver.grid_pv),
+                       link_p=_lanes(solver.link_p), contact_pn=_lanes(solver.contact_pn),
+                       contact_pt=_lanes(solver.contact_pt), lock_p=_lanes(solver.lock_p)),
+        events=_lanes(events, np.int64),
+        close_threshold=np.array([float(close_threshold)]),
+        contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1))
+
+
+def _map(data: Data, fn) -> Data:
+    """``fn(array)`` applied to every per-lane array of ``data`` (same structure)."""
+    def rec(t):
+        if isinstance(t, np.ndarray):
+            return fn(t)
+        return type(t)(*(rec(f) for f in t))
+    return rec(data)
+
+
+def empty_like(data: Data, lanes: int) -> Data:
+    """Data of the same shapes with ``lanes`` lanes, zero-filled."""
+    return _map(data, lambda a: np.zeros(a.shape[:-1] + (lanes,), dtype=a.dtype))
+
+
+def copy_lane(dst: Data, dst_lane: int, src: Data, src_lane: int) -> None:
+    """Copy lane ``src_lane`` of ``src`` into lane ``dst_lane`` of ``dst`` (same model)."""
+    def rec(d, s):
+        if isinstance(d, np.ndarray):
+            d[..., dst_lane] = s[..., src_lane]
+            return
+        for a, b in zip(d, s):
+            rec(a, b)
+    rec(dst, src)
+
+
+def take(data: Data, lanes) -> Data:
+    """A new Data of the given lanes, in that order (fresh contiguous arrays)."""
+    idx = np.asarray(lanes, dtype=np.int64)
+    return _map(data, lambda a: np.ascontiguousarray(a[..., idx]))
+
+
+def lane_count(data: Data) -> int:
+    return int(data.close_threshold.shape[0])
+
+
+def events_of(data: Data, lane: int) -> np.ndarray:
+    """The (N_EV,) events of one lane (a view)."""
+    assert data.events.shape[0] == N_EV
+    return data.events[:, lane]
