@@ -6,11 +6,16 @@
           distance_to_target: 16.14, launch_velocity: [4.02, 2.60, 8.88], \
           closing_displacement: 2.26}, seed: 3, record_bag: true}"
 
+    ros2 action send_goal --feedback /tethernet/capture tethernet_msgs/action/Capture "{...}"
+
 (noise settings left out: every scale 1.0, the nominal spreads; `nominal: true` for none)
 
 Starts sim_node, monitor_node, actuator_node and capture_node with the parameters of
-config/tethernet.yaml (installed to share/tethernet_ros/config).  Without a ROS install
-(PyPI wheels only) use `tethernet capture --via ros`, which starts the same processes.
+config/tethernet.yaml (installed to share/tethernet_ros/config).  ``name=`` reaches each
+process as ``-r __node:=<name>``, which renames every node in it: the capture node's
+recorder names itself ``<name>_recorder`` with a remap of its own, so names stay unique.
+Without a ROS install (PyPI wheels only) use `tethernet capture --via ros`, which starts
+the same processes the same way.
 """
 import os
 

@@ -20,9 +20,9 @@ def command_qos():
 
 def latched_qos():
     """Reliable, keep-last(1), transient-local: the episode result and the monitor's
-    verdict.  A subscriber that joins later (``ros2 topic echo --qos-durability
-    transient_local``) still gets the last one; a volatile subscriber matches too and gets
-    only new ones."""
+    verdict.  A reliable, transient-local subscriber that joins later (``ros2 topic echo
+    --qos-durability transient_local --qos-reliability reliable``) still gets the last
+    one; a best-effort one gets no history; a volatile one matches and gets only new ones."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     return QoSProfile(depth=LATCHED_DEPTH, reliability=ReliabilityPolicy.RELIABLE,
