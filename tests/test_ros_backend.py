@@ -74,6 +74,8 @@ def test_cli_optimize_via_ros(tmp_path):
     out = subprocess.run(
         [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "time", "--via", "ros",
          "--seed-points", "2", "--iterations", "0", "--samples", "1", "--validation-samples", "1",
+         "--validation-rule", "estimate",        # (Wilson, the default, needs >= 189 samples)
+         "--validation-rule", "estimate",
          "--config", str(cfg), "--run-dir", str(tmp_path / "run"), "--keep-bags", "--json",
          "--gp-restarts", "0"],
         capture_output=True, text=True, cwd=ROOT, timeout=500)
