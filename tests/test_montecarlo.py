@@ -11,6 +11,7 @@ from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.metrics import clopper_pearson_interval, wilson_interval
 from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros import montecarlo as mc
+from results_lines import sample_lines
 
 SHORT = SimConfig(settle_time=2.0)
 DESIGN = REFERENCE_DESIGNS["time-min"]
@@ -140,7 +141,7 @@ def test_results_file_repairs_partial_last_line(tmp_path):
     assert p.read_text() == text                              # partial tail cut off
     rf.append(_sample(3, True))
     assert len(rf.load()) == 4 and rf.skipped_lines == 0
-    assert all(json.loads(line)["v"] == mc.RECORD_VERSION for line in p.read_text().splitlines())
+    assert all(json.loads(line)["v"] == mc.RECORD_VERSION for line in sample_lines(p))
 
 
 @pytest.fixture(scope="module")
@@ -157,7 +158,7 @@ def test_evaluate_in_process(reference_run):
     assert r.n_samples == 4 and [s.seed for s in r.samples] == [0, 1, 2, 3]
     assert r.successes + sum(r.failures_by_reason.values()) == 4
     assert all(s.trace and len(s.trace["cqi"]) == len(s.trace["time"]) > 10 for s in r.samples)
-    assert len(path.read_text().splitlines()) == 4
+    assert len(sample_lines(path)) == 4
     # the sample equals a direct run of the core with the same seed (common random numbers)
     from tethernet_ros.core.episode import run_episode
 
@@ -169,7 +170,7 @@ def test_evaluate_in_process(reference_run):
 
 def test_resume_after_truncation_gives_same_result(reference_run, tmp_path):
     r, path = reference_run
-    lines = path.read_text().splitlines(keepends=True)
+    lines = sample_lines(path, keepends=True)
     cut = tmp_path / "cut.jsonl"
     cut.write_text("".join(lines[:2]) + lines[2][: len(lines[2]) // 2])   # killed mid-line
     progress = []
@@ -179,7 +180,7 @@ def test_resume_after_truncation_gives_same_result(reference_run, tmp_path):
     assert [s.outcome() for s in r2.samples] == [s.outcome() for s in r.samples]
     assert (r2.p_success, r2.mean_completion_time, r2.failures_by_reason) == \
         (r.p_success, r.mean_completion_time, r.failures_by_reason)
-    assert len(cut.read_text().splitlines()) == 4
+    assert len(sample_lines(cut)) == 4
     # a complete file: nothing left to simulate, and a larger N reuses the first samples
     r3 = mc.evaluate(DESIGN, 4, 0, NoiseModel(), SHORT, mc.InProcessBackend(), results_path=cut,
                      record_trace=True)

@@ -11,6 +11,7 @@ from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros import montecarlo as mc
+from results_lines import sample_lines
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -36,7 +37,7 @@ def test_validate_json_matches_library(tmp_path):
     assert d["failures_by_reason"] == ref.failures_by_reason
     assert (d["ci_low"], d["ci_high"]) == (ref.ci_low, ref.ci_high)
     assert d["mass"] == pytest.approx(11.49, abs=0.01)
-    assert len(res.read_text().splitlines()) == 2
+    assert len(sample_lines(res)) == 2
     # run again: everything read back from the results file, same answer
     again = tethernet("validate", "--design", "time-min", "--samples", "2", "--settle-time", "2",
                       "--workers", "0", "--results", str(res), "--json", "--no-progress")
@@ -76,7 +77,7 @@ def test_figures_cqi_and_snapshots(tmp_path):
                     "--no-progress")
     assert out.returncode == 0, out.stderr
     assert png.stat().st_size > 10_000
-    recs = [json.loads(l) for l in (tmp_path / "c.jsonl").read_text().splitlines()]
+    recs = [json.loads(l) for l in sample_lines(tmp_path / "c.jsonl")]
     assert all(r["trace"] and len(r["trace"]["cqi"]) > 10 for r in recs)
 
     snap = tmp_path / "snap.png"
@@ -113,7 +114,7 @@ def test_sensitivity_csv_and_png(tmp_path):
     assert [(r["source"], float(r["scale"])) for r in rows] == \
         [("speed", 0.5), ("speed", 1.0), ("speed", 2.0), ("closing", 0.5), ("closing", 1.0), ("closing", 2.0)]
     # scale 1 is one shared run: 5 distinct runs of 1 sample
-    assert len((tmp_path / "s.jsonl").read_text().splitlines()) == 5
+    assert len(sample_lines(tmp_path / "s.jsonl")) == 5
     speed1 = next(r for r in rows if r["source"] == "speed" and float(r["scale"]) == 1.0)
     close1 = next(r for r in rows if r["source"] == "closing" and float(r["scale"]) == 1.0)
     assert speed1["mean_completion_time"] == close1["mean_completion_time"]

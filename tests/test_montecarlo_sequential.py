@@ -9,6 +9,7 @@ from optimizer_fakes import SyntheticBackend, synthetic_probability
 from tethernet_ros import montecarlo as mc
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS, Design
+from results_lines import sample_lines
 
 CFG = SimConfig.preset("spec-text")
 #: true P_s about 0.9: infeasible for C_P = 0.98, decided after some 30 samples
@@ -56,7 +57,7 @@ def test_a_feasible_design_keeps_its_samples_unless_the_rule_stops_early():
 def test_resumes_from_the_results_file(tmp_path):
     path = tmp_path / "samples.jsonl"
     ref = _evaluate(SyntheticBackend(workers=4), results_path=path)
-    lines = path.read_text().splitlines()
+    lines = sample_lines(path)
     path.write_text("\n".join(lines[:7]) + "\n" + lines[7][:15])  # killed mid-record
     be = SyntheticBackend(workers=4)
     again = _evaluate(be, results_path=path)

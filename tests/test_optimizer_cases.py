@@ -32,12 +32,15 @@ from tethernet_ros.core.design import (DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABL
                                        system_mass)
 from tethernet_ros.design_problem import SimulatorProblem, optimize_design
 from tethernet_ros.montecarlo import EpisodeBackend, InProcessBackend, sample_seed
+from results_lines import sample_lines
 
 ROOT = Path(__file__).resolve().parent.parent
 FAST = {"n_restarts_gp": 0, "n_candidates": 2000}
 SHORT = {"settle_time": 2.0, "horizon": 15.0, "success_cqi": 1.0e6, "success_locked_pairs": 0}
+#: the procedure before racing and fresh samples (issue 21), for tests of what it does
+OLD = dict(racing_candidates=0, fresh_samples=False)
 TINY = dict(seed_points=3, iterations=2, samples=3, validation_samples=3,
-            validation_rule="estimate")
+            validation_rule="estimate", **OLD)
 
 
 # ----------------------------------------------------------------- case definitions
@@ -176,7 +179,10 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequentia
     assert full["best_design"] is not None and full["validation"]["samples"] == 20
     per_design = np.cumsum([int(line.split(",")[13])
                             for line in _history(tmp_path / "full")[1:]])
-    assert per_design[-1] == full["episodes"] == len(full_be.tasks) - 20
+    assert full["fresh_samples"] and full["racing"]["episodes"] > 0      # the new defaults
+    assert full["episodes_total"] == len(full_be.tasks) == (
+        full["episodes"] + full["episodes_racing"] + full["episodes_validation"])
+    assert per_design[-1] == full["episodes"]
     mid_model_phase = (per_design[5] + per_design[-1]) // 2
     assert 25 < per_design[5] < mid_model_phase < per_design[-1]
     for kill_after in (25, mid_model_phase):     # mid seed phase, mid model-based phase
@@ -209,7 +215,8 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequentia
     assert be.tasks == [] and again["best_design"] == full["best_design"]
     more = optimize_design("mass", backend=be, run_dir=tmp_path / "full", resume=True,
                            **{**kw, "iterations": 8})
-    assert more["evaluations"] == 14 and 0 < len(be.tasks) <= 40  # (+ validation if the best moved)
+    # 2 designs x 10 samples (+ validation and racing if the ranking moved)
+    assert more["evaluations"] == 14 and 0 < len(be.tasks) <= 40 + more["episodes_racing"]
 
 
 def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
@@ -218,7 +225,7 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     validates the next ones in order of m_a until one meets C_P (here the fifth).
     Resuming the K = 1 run with K = 6 reuses its validation and gives the same result."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_stop=False, validation_rule="estimate")
+              optimizer_options=FAST, validation_stop=False, validation_rule="estimate", **OLD)
     one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
     assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
@@ -265,7 +272,7 @@ def test_validation_rule_wilson_demands_the_interval_above_the_requirement(tmp_p
     rejects a chosen design whose interval reaches below C_P and validates further ones."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
               optimizer_options=FAST, validation_candidates=6, validation_stop=False,
-              validation_rule="estimate")
+              validation_rule="estimate", **OLD)
     est = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r", **kw)
     assert est["validation_rule"] == "estimate"
     be = SyntheticBackend()
@@ -297,7 +304,7 @@ def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
     gets every sample, and the table says where a validation stopped.  A run recorded
     without it (older runs) keeps its full validations on resume."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
-              optimizer_options=FAST, validation_candidates=6, validation_rule="estimate")
+              optimizer_options=FAST, validation_candidates=6, validation_rule="estimate", **OLD)
     full = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "full",
                            validation_stop=False, **kw)
     stop = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "stop", **kw)
@@ -309,7 +316,7 @@ def test_validation_stops_at_the_failure_that_decides_it(tmp_path):
     rows = {r["evaluation"]: r for r in stop["table"]}
     first_stop = rows[first_eval]["validation"]
     records = {}
-    for line in (tmp_path / "full" / "validation.jsonl").read_text().splitlines():
+    for line in sample_lines(tmp_path / "full" / "validation.jsonl"):
         rec = json.loads(line)
         if rec["design"] == full_design(full, first_eval):
             records[rec["index"]] = rec["success"]
@@ -416,7 +423,8 @@ def cli_run(tmp_path_factory, short_yaml):
     out = subprocess.run(
         [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "mass",
          "--seed-points", "3", "--iterations", "2", "--samples", "3", "--validation-samples", "3",
-         "--validation-rule", "estimate", "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
+         "--validation-rule", "estimate", "--racing-candidates", "0", "--no-fresh-samples",
+         "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
          "--gp-restarts", "0", "--candidates", "2000", "--json"],
         capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]

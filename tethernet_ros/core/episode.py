@@ -21,7 +21,8 @@ from .scenario import Actions, Scenario, World, actions_for, build_scenario, wor
 
 
 class CaptureSimulation:
-    """Owns a :class:`Scenario` and advances it with the numba kernel.
+    """One episode of a :class:`Scenario`: advances it with the numba kernel (a batch of
+    one lane), or, inside a batch (:mod:`tethernet_ros.core.batch`), reads its lane.
 
     Time is kept as an integer step count; ``time`` = step * dt (s).
     """
@@ -31,7 +32,7 @@ class CaptureSimulation:
         self.cfg = scenario.config
         self.dt = scenario.dt
         self.model, self.data = scenario.kernel()
-        self.scratch = kn.new_scratch(self.model, 1)
+        self.scratch = kn.new_scratch(self.model, 1) if kn.lane_count(self.data) == 1 else None
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
@@ -68,24 +69,24 @@ class CaptureSimulation:
         return self.horizon_steps if cs is None else cs + self.settle_steps
 
     def advance(self, n_steps: int) -> None:
-        """Advance ``n_steps`` integration steps (mutates the scenario arrays)."""
+        """Advance ``n_steps`` integration steps (mutates the scenario arrays).  A lane of a
+        batch is advanced by its batch, not here."""
         if n_steps <= 0:
             return
+        if self.scratch is None:
+            raise RuntimeError("a lane of a batch is advanced by the batch")
         model = self.s.kernel()[0]   # set_params may have rebuilt it
-        if self.cfg.integrator == "implicit":
-            kn.advance_implicit(model, self.data, self.scratch, n_steps)
-        else:
-            kn.advance_explicit(model, self.data, self.scratch, n_steps)
+        advance_kernel(self.cfg, model, self.data, self.scratch, n_steps)
 
     @property
     def contact_count(self) -> int:
         """Body-steps spent in contact with the target so far."""
-        return int(self.data.contact_count[0])
+        return int(self.data.contact_count[self.s.lane])
 
     @property
     def max_penetration(self) -> float:
         """Deepest penetration of a body into the target so far (m)."""
-        return float(self.data.max_penetration[0])
+        return float(self.data.max_penetration[self.s.lane])
 
     def divergence(self) -> str:
         """'' if the state is sound, else why the simulation diverged."""
@@ -189,19 +190,48 @@ class EpisodeResult:
         return d
 
 
-def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=None) -> EpisodeResult:
-    """Run a prepared simulation to its end: closing activation + settle time, the horizon
-    without closing, or divergence.  ``observer(sim)`` is called at every metric sample."""
-    cfg = sim.cfg
-    t0 = time.perf_counter()
-    metric_every = int(round(1.0 / (cfg.metric_rate * sim.dt)))
-    state_every = max(1, int(round(1.0 / (cfg.state_rate * sim.dt)))) if cfg.state_rate > 0 else 0
-    trace = EpisodeTrace() if record_trace else None
-    reason = ""
+def advance_kernel(cfg: SimConfig, model, data, scratch, n_steps: int) -> None:
+    """Advance every lane of ``data`` by ``n_steps`` with the configured method."""
+    if cfg.integrator == "implicit":
+        kn.advance_implicit(model, data, scratch, n_steps)
+    else:
+        kn.advance_explicit(model, data, scratch, n_steps)
 
-    def sample(step):
+
+class EpisodeClock:
+    """When an episode is looked at: the metric samples (every ``metric_every`` steps),
+    the state samples (``state_every``, 0: none) and the checks for divergence and for its
+    end (every ``chunk`` steps, the steps of both kinds of sample), up to its end.  The one
+    home of these rules for single episodes, batch lanes and the ROS simulation node."""
+
+    def __init__(self, cfg: SimConfig, dt: float):
+        self.metric_every = int(round(1.0 / (cfg.metric_rate * dt)))
+        self.state_every = (max(1, int(round(1.0 / (cfg.state_rate * dt))))
+                            if cfg.state_rate > 0 else 0)
+        self.chunk = (self.metric_every if not self.state_every
+                      else math.gcd(self.metric_every, self.state_every))
+
+    def next_stop(self, step: int, end: int) -> int:
+        """The next step at which to look: the next multiple of ``chunk``, or the end."""
+        return min((step // self.chunk + 1) * self.chunk, end)
+
+
+class EpisodeRecorder:
+    """The trace of an episode (if asked) and the observer's calls, at the clock's steps."""
+
+    def __init__(self, sim: CaptureSimulation, clock: EpisodeClock, record_trace: bool,
+                 observer=None):
+        self.sim = sim
+        self.clock = clock
+        self.trace = EpisodeTrace() if record_trace else None
+        self.observer = observer
+
+    def sample(self, step: int) -> None:
+        """Record what is due at ``step`` (the simulation's current step)."""
+        trace, observer, sim = self.trace, self.observer, self.sim
         if trace is None and observer is None:
             return
+        metric_every, state_every = self.clock.metric_every, self.clock.state_every
         if trace is not None and step % metric_every == 0:
             terms = sim.cqi()
             trace.time.append(step * sim.dt)
@@ -218,20 +248,30 @@ def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=N
         if observer is not None and step % metric_every == 0:
             observer(sim)
 
-    sample(sim.step)
-    chunk = metric_every if not state_every else math.gcd(metric_every, state_every)
-    while True:
-        end = sim.end_step()
-        if sim.step >= end:
-            break
-        nxt = min((sim.step // chunk + 1) * chunk, end)
-        sim.advance(nxt - sim.step)
-        reason = sim.divergence()
-        if reason:
-            break
-        sample(sim.step)
 
-    return episode_result(sim, reason, time.perf_counter() - t0, trace)
+def after_stop(sim: CaptureSimulation, recorder: EpisodeRecorder) -> tuple[bool, str]:
+    """What an episode does when it reaches one of its clock's steps: (ended, reason) --
+    ended on divergence (with its reason) or at its end step, else its samples taken."""
+    reason = sim.divergence()
+    if reason:
+        return True, reason
+    recorder.sample(sim.step)
+    return sim.step >= sim.end_step(), ""
+
+
+def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=None) -> EpisodeResult:
+    """Run a prepared simulation to its end: closing activation + settle time, the horizon
+    without closing, or divergence.  ``observer(sim)`` is called at every metric sample."""
+    t0 = time.perf_counter()
+    clock = EpisodeClock(sim.cfg, sim.dt)
+    rec = EpisodeRecorder(sim, clock, record_trace, observer)
+    rec.sample(sim.step)
+    reason = ""
+    ended = sim.step >= sim.end_step()
+    while not ended:
+        sim.advance(clock.next_stop(sim.step, sim.end_step()) - sim.step)
+        ended, reason = after_stop(sim, rec)
+    return episode_result(sim, reason, time.perf_counter() - t0, rec.trace)
 
 
 def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 0.0,

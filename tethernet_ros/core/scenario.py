@@ -99,6 +99,7 @@ class Scenario:
     close_threshold: float = 0.0
     iterations: int = 4
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
+    lane: int = field(default=0, repr=False, compare=False)
 
     @property
     def n_bodies(self) -> int:
@@ -116,35 +117,44 @@ class Scenario:
                            self.target_body, self.params, self.iterations)
 
     def kernel(self) -> tuple[kn.Model, kn.Data]:
-        """The kernel's (Model, Data with one lane) of this episode, built on first call;
-        the parts are then views of lane 0 of the Data."""
+        """The kernel's (Model, Data) of this episode: on first call a Data of one lane is
+        built and the parts become views of it; after :meth:`attach`, the batch's."""
         if self._kernel is None:
             from .kernel.data import one_lane
             data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
                             self.close_threshold, self.events, self.solver)
             self._kernel = (self._build_model(), data)
-            self._bind(data)
+            self._bind(data, 0)
         return self._kernel
 
-    def _bind(self, data: kn.Data) -> None:
-        """Rebind the parts' changing arrays to views of lane 0 of ``data``."""
+    def attach(self, model: kn.Model, data: kn.Data, lane: int) -> None:
+        """Make this episode lane ``lane`` of a batch's ``data`` (whose lane already holds
+        it, e.g. by ``kernel.copy_lane``): the parts become views of that lane."""
+        self._kernel = (model, data)
+        self.lane = lane
+        self._bind(data, lane)
+
+    def _bind(self, data: kn.Data, lane: int) -> None:
+        """Rebind the parts' changing arrays to views of ``lane`` of ``data``."""
+        q = lane
         bd, ln, rg, tg, ws = data.bodies, data.links, data.ring, data.target, data.warm
-        self.bodies = self.bodies._replace(x=bd.x[:, :, 0], v=bd.v[:, :, 0], w=bd.w[:, 0],
-                                           mass=bd.mass[:, 0],
-                                           contact_mask=bd.contact_mask[:, 0],
-                                           c_contact=bd.c_contact[:, 0])
-        self.links = self.links._replace(rest=ln.rest[:, 0], k=ln.k[:, 0], c=ln.c[:, 0],
-                                         active=ln.active[:, 0])
-        self.drawstring = self.drawstring._replace(locked=rg.locked[:, 0],
-                                                   maxdist=rg.maxdist[:, 0],
-                                                   lock_step=rg.lock_step[:, 0])
-        self.target_body = self.target_body._replace(pos=tg.pos[:, 0], quat=tg.quat[:, 0],
-                                                     vel=tg.vel[:, 0], omega=tg.omega[:, 0],
-                                                     ang_mom=tg.ang_mom[:, 0])
-        self.events = data.events[:, 0]
-        self.solver = kn.Solver(grid_ph=ws.grid_ph[..., 0], grid_pv=ws.grid_pv[..., 0],
-                                link_p=ws.link_p[:, 0], contact_pn=ws.contact_pn[:, 0],
-                                contact_pt=ws.contact_pt[..., 0], lock_p=ws.lock_p[:, 0])
+        self.lane = q
+        self.bodies = self.bodies._replace(x=bd.x[:, :, q], v=bd.v[:, :, q], w=bd.w[:, q],
+                                           mass=bd.mass[:, q],
+                                           contact_mask=bd.contact_mask[:, q],
+                                           c_contact=bd.c_contact[:, q])
+        self.links = self.links._replace(rest=ln.rest[:, q], k=ln.k[:, q], c=ln.c[:, q],
+                                         active=ln.active[:, q])
+        self.drawstring = self.drawstring._replace(locked=rg.locked[:, q],
+                                                   maxdist=rg.maxdist[:, q],
+                                                   lock_step=rg.lock_step[:, q])
+        self.target_body = self.target_body._replace(pos=tg.pos[:, q], quat=tg.quat[:, q],
+                                                     vel=tg.vel[:, q], omega=tg.omega[:, q],
+                                                     ang_mom=tg.ang_mom[:, q])
+        self.events = data.events[:, q]
+        self.solver = kn.Solver(grid_ph=ws.grid_ph[..., q], grid_pv=ws.grid_pv[..., q],
+                                link_p=ws.link_p[:, q], contact_pn=ws.contact_pn[:, q],
+                                contact_pt=ws.contact_pt[..., q], lock_p=ws.lock_p[:, q])
 
     def threads(self):
         """Every thread, grid and other: (pairs (T, 2), rest (m), k (N/m), c (N s/m),

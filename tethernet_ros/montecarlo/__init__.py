@@ -13,7 +13,8 @@ A module per job, in reading order:
 seeds.py           common random numbers: sample i of base seed b draws seed b * 1_000_003 + i
 keys.py            run keys: the identity of a (design, noise model, config) and the model
 records.py         EpisodeTask, SampleResult (one sample), failure categories
-worker.py          what a worker runs: run_task, warm_worker, the fault hook of the tests
+worker.py          what a worker runs: run_group (a group of tasks on the batched kernel),
+                   run_task, warm_worker, the fault hook of the tests
 backends.py        the EpisodeBackend interface, Outcome, the in-process backend
 process_pool.py    ProcessPoolBackend
 dask_backend.py    DaskBackend
@@ -36,7 +37,7 @@ from .results_file import ResultsFile
 from .running import make_backend, run_tasks
 from .seeds import SEED_STRIDE, sample_seed
 from .summary import MonteCarloResult
-from .worker import FAULT_ENV, run_task, warm_worker
+from .worker import FAULT_ENV, run_group, run_task, warm_worker
 
 
 __all__ = [
@@ -44,6 +45,7 @@ __all__ = [
     "MonteCarloResult", "Outcome", "ProcessPoolBackend", "ProgressFn", "RECORD_VERSION",
     "ResultsFile", "RunSpec", "SEED_STRIDE", "SampleResult", "StopRule", "TRACE_FIELDS",
     "default_workers", "error_text", "evaluate", "evaluate_many", "failure_category",
-    "make_backend", "model_version", "run_key", "run_task", "run_tasks", "sample_result",
+    "make_backend", "model_version", "run_group", "run_key", "run_task", "run_tasks",
+    "sample_result",
     "sample_seed", "warm_worker", "worker_error_result",
 ]

@@ -14,7 +14,11 @@ from dataclasses import dataclass
 from collections.abc import Iterable, Iterator
 
 from .records import EpisodeTask, SampleResult
-from .worker import run_task
+from .worker import iter_group, same_batch
+
+#: tasks a worker process takes at once, as one group on the batched kernel (its lanes
+#: refill from the group)
+GROUP_SIZE = 8
 
 
 def default_workers() -> int:
@@ -55,6 +59,11 @@ class EpisodeBackend(abc.ABC):
     name = "backend"
     workers = 1
 
+    @property
+    def batch_size(self) -> int:
+        """Samples a sequential sampler should draw at a time to keep every lane busy."""
+        return self.workers
+
     @abc.abstractmethod
     def map(self, tasks: Iterable[EpisodeTask],
             max_in_flight: int | None = None) -> Iterator[Outcome]:
@@ -73,14 +82,51 @@ class EpisodeBackend(abc.ABC):
         self.close()
 
 
+def chunk_tasks(tasks, size: int) -> list[list[EpisodeTask]]:
+    """Consecutive tasks that can share a batch, in groups of at most ``size``."""
+    out: list[list[EpisodeTask]] = []
+    for t in tasks:
+        if out and len(out[-1]) < size and same_batch(out[-1][0], t):
+            out[-1].append(t)
+        else:
+            out.append([t])
+    return out
+
+
+def group_outcomes(group: list[EpisodeTask], results) -> list[Outcome]:
+    """The outcomes of a group from its worker's (task, result, error) triples; a task
+    the worker did not report gets an error."""
+    def ident(t):
+        return t.key, t.index, t.seed
+
+    mine = {ident(t): t for t in group}
+    out = [Outcome(mine.get(ident(t), t), r) if err is None
+           else Outcome(mine.get(ident(t), t), error=err) for t, r, err in results]
+    seen = {ident(o.task) for o in out}
+    out += [Outcome(t, error="not reported by its worker") for t in group if ident(t) not in seen]
+    return out
+
+
 class InProcessBackend(EpisodeBackend):
-    """Serial, in the calling process."""
+    """Serial, in the calling process, on the batched kernel (``lanes`` per batch, None:
+    chosen per CPU); tasks are taken as lanes free up."""
 
     name = "in-process"
 
+    def __init__(self, lanes: int | None = None):
+        self.lanes = lanes
+
+    @property
+    def batch_size(self) -> int:
+        if self.lanes:
+            return int(self.lanes)
+        from ..core.batch import choose_lanes
+        return choose_lanes()
+
     def map(self, tasks, max_in_flight=None):
-        for t in tasks:
-            try:
-                yield Outcome(t, run_task(t))
-            except Exception as exc:  # noqa: BLE001 - any task error becomes an outcome
-                yield Outcome(t, error=error_text(exc))
+        lanes = 1 if max_in_flight == 1 else self.lanes
+        try:
+            for t, r, err in iter_group(tasks, lanes):
+                yield Outcome(t, r) if err is None else Outcome(t, error=err)
+        except Exception as exc:  # noqa: BLE001 - an error outside a task: report, never drop
+            raise RuntimeError(f"in-process batch failed: {error_text(exc)}") from exc

@@ -3,20 +3,24 @@ from __future__ import annotations
 
 from collections import deque
 
-from .backends import EpisodeBackend, Outcome, default_workers, error_text
-from .worker import run_task, warm_worker
+from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
+                       error_text, group_outcomes)
+from .worker import run_group, warm_worker
 
 
 class DaskBackend(EpisodeBackend):
     """A dask.distributed cluster: ``scheduler`` is an address ('tcp://host:8786') or
     None / 'local' for a LocalCluster of ``workers`` single-threaded worker processes
     (no dashboard).  Workers need tethernet_ros importable and are warmed with
-    :func:`warm_worker`.  On the local cluster a dying worker fails its task at once
+    :func:`warm_worker`; each takes groups of up to ``group_size`` tasks of one design on
+    the batched kernel.  On the local cluster a dying worker fails its task at once
     (allowed-failures 0); on a remote scheduler its own setting applies first."""
 
     name = "dask"
 
-    def __init__(self, scheduler: str | None = None, workers: int | None = None):
+    def __init__(self, scheduler: str | None = None, workers: int | None = None,
+                 group_size: int = GROUP_SIZE):
+        self.group_size = int(group_size)
         self.scheduler = None if scheduler in (None, "", "local") else scheduler
         self._n = int(workers or default_workers())
         self._client = None
@@ -27,6 +31,10 @@ class DaskBackend(EpisodeBackend):
         if self._client is None:
             return self._n
         return max(1, sum(self._client.nthreads().values()))
+
+    @property
+    def batch_size(self) -> int:
+        return self.workers * self.group_size
 
     def describe(self) -> str:
         where = self.scheduler or "local cluster"
@@ -57,7 +65,7 @@ class DaskBackend(EpisodeBackend):
 
         self.start()
         client = self._client
-        pending = deque(tasks)
+        pending = deque(chunk_tasks(tasks, 1 if max_in_flight == 1 else self.group_size))
         limit = max_in_flight or max(len(pending), 1)
         ac = as_completed()
         inflight = {}
@@ -65,24 +73,25 @@ class DaskBackend(EpisodeBackend):
         def submit_more():
             while pending and len(inflight) < limit:
                 t = pending.popleft()
-                fut = client.submit(run_task, t, pure=False, retries=0)
+                fut = client.submit(run_group, t, pure=False, retries=0)
                 inflight[fut.key] = (fut, t)
                 ac.add(fut)
 
         submit_more()
         try:
             for fut in ac:
-                _, task = inflight.pop(fut.key)
+                _, group = inflight.pop(fut.key)
                 if fut.status == "finished":
-                    yield Outcome(task, fut.result())
+                    yield from group_outcomes(group, fut.result())
                 else:
                     try:
                         exc = fut.exception()
                     except BaseException as e:  # noqa: BLE001 - cancelled / lost futures
                         exc = e
                     crashed = type(exc).__name__ == "KilledWorker"
-                    yield Outcome(task, error="worker process died (KilledWorker)" if crashed
-                                  else error_text(exc), crashed=crashed)
+                    for task in group:
+                        yield Outcome(task, error="worker process died (KilledWorker)" if crashed
+                                      else error_text(exc), crashed=crashed)
                 fut.release()
                 submit_more()
         finally:

@@ -7,7 +7,7 @@ random numbers, :mod:`~tethernet_ros.montecarlo.seeds`) on any
 results file (:mod:`~tethernet_ros.montecarlo.results_file`).
 
 Sequential sampling (``evaluate(..., stop=rule)``): the samples are drawn in batches of
-``batch_size`` (default: the backend's worker count, so every worker has one), in index
+``batch_size`` (default: the backend's ``batch_size``, enough for every worker's lanes), in index
 order; after each batch ``stop`` sees the successes of the samples drawn so far, in index
 order, and either says how many leading samples decide the estimate or asks for more.
 The result then rests on exactly those leading samples, so it is the same whatever the
@@ -25,7 +25,7 @@ from collections.abc import Callable, Sequence
 from ..core.config import SimConfig
 from ..core.design import Design
 from ..core.noise import NoiseModel
-from .backends import EpisodeBackend, InProcessBackend, default_workers
+from .backends import GROUP_SIZE, EpisodeBackend, InProcessBackend, default_workers
 from .keys import run_key
 from .process_pool import ProcessPoolBackend
 from .records import EpisodeTask, SampleResult
@@ -195,7 +195,8 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     try:
         while decided is None and len(samples) < n_samples:
             start = len(samples)
-            size = int(batch_size or (be.workers if be is not None else default_workers()))
+            size = int(batch_size or (be.batch_size if be is not None
+                                      else default_workers() * GROUP_SIZE))
             batch: dict[int, SampleResult] = {}
             tasks = []
             for i in range(start, min(start + size, n_samples)):

@@ -3,21 +3,26 @@ from __future__ import annotations
 
 from collections import deque
 
-from .backends import EpisodeBackend, Outcome, default_workers, error_text
-from .worker import run_task, warm_worker
+from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
+                       error_text, group_outcomes)
+from .worker import run_group, warm_worker
 
 
 class ProcessPoolBackend(EpisodeBackend):
     """Local worker processes (concurrent.futures, 'spawn' context by default: no forked
     numba/LLVM or ROS state).  Each worker loads the numba cache once at start
-    (:func:`warm_worker`).  A pool broken by a dying worker is replaced."""
+    (:func:`warm_worker`) and runs groups of up to ``group_size`` tasks of one design on the
+    batched kernel (:func:`~tethernet_ros.montecarlo.worker.run_group`).  A pool broken by
+    a dying worker is replaced; every task of a group in flight on it is reported crashed."""
 
     name = "process pool"
 
-    def __init__(self, workers: int | None = None, context: str = "spawn", warm: bool = True):
+    def __init__(self, workers: int | None = None, context: str = "spawn", warm: bool = True,
+                 group_size: int = GROUP_SIZE):
         self.workers = int(workers or default_workers())
         if self.workers < 1:
             raise ValueError("workers must be >= 1")
+        self.group_size = int(group_size)
         self.context = context
         self.warm = warm
         self._pool = None
@@ -46,19 +51,24 @@ class ProcessPoolBackend(EpisodeBackend):
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
+    @property
+    def batch_size(self) -> int:
+        return self.workers * self.group_size
+
     def map(self, tasks, max_in_flight=None):
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
+        size = 1 if max_in_flight == 1 else self.group_size
         limit = max(1, min(max_in_flight or self.workers, self.workers))
-        pending = deque(tasks)
+        pending = deque(chunk_tasks(tasks, size))
         inflight = {}
         try:
             while pending or inflight:
                 broken = False
                 while pending and len(inflight) < limit and not broken:
                     try:
-                        fut = self._get_pool().submit(run_task, pending[0])
+                        fut = self._get_pool().submit(run_group, pending[0])
                     except BrokenProcessPool:
                         broken = True
                         break
@@ -69,17 +79,19 @@ class ProcessPoolBackend(EpisodeBackend):
                 if broken:  # every future of a broken pool completes at once
                     done, _ = wait(list(inflight))
                 for fut in done:
-                    task = inflight.pop(fut)
+                    group = inflight.pop(fut)
                     exc = fut.exception()
                     if exc is None:
-                        yield Outcome(task, fut.result())
+                        yield from group_outcomes(group, fut.result())
                     elif isinstance(exc, KeyboardInterrupt):  # Ctrl-C reached the workers too
                         raise KeyboardInterrupt
                     elif isinstance(exc, BrokenProcessPool):
-                        yield Outcome(task, error="worker process died (BrokenProcessPool)",
-                                      crashed=True)
+                        for task in group:
+                            yield Outcome(task, error="worker process died (BrokenProcessPool)",
+                                          crashed=True)
                     else:
-                        yield Outcome(task, error=error_text(exc))
+                        for task in group:
+                            yield Outcome(task, error=error_text(exc))
                 if broken:
                     self._drop_pool()
         finally:

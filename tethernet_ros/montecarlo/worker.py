@@ -1,5 +1,6 @@
-"""What a worker process does: simulate one task (:func:`run_task`), warm its numba
-kernels (:func:`warm_worker`), and the test hook that makes it fail on purpose."""
+"""What a worker process does: simulate a group of tasks of one design on the batched
+kernel (:func:`run_group`) or one task (:func:`run_task`), warm its numba kernels
+(:func:`warm_worker`), and the test hook that makes it fail on purpose."""
 from __future__ import annotations
 
 import os
@@ -13,18 +14,81 @@ FAULT_ENV = "TETHERNET_MC_FAULT"
 
 
 def run_task(task: EpisodeTask) -> SampleResult:
-    """Simulate one task (the function every backend's workers call)."""
+    """Simulate one task (a group of one); raise what the task raised."""
     from ..core.episode import run_episode
 
     fault_hook(task)
     sample = task.noise_model.sample(task.seed)
     cpu0 = time.process_time()
     r = run_episode(task.design, sample, task.config, record_trace=task.record_trace)
-    cpu = time.process_time() - cpu0
+    return _result(task, r, time.process_time() - cpu0)
+
+
+def _result(task: EpisodeTask, r, cpu: float) -> SampleResult:
     trace = None
     if task.record_trace and r.trace is not None:
         trace = {f: list(getattr(r.trace, f)) for f in TRACE_FIELDS}
     return sample_result(task, r, cpu_time=cpu, trace=trace)
+
+
+def same_batch(a: EpisodeTask, b: EpisodeTask) -> bool:
+    """Whether two tasks can share a batch (one model: same design, config and trace)."""
+    return a.design == b.design and a.config == b.config and a.record_trace == b.record_trace
+
+
+def iter_group(tasks, lanes: int | None = None):
+    """Simulate tasks side by side on the batched kernel (``core.batch``): each run of
+    consecutive tasks that can share a batch together, ``lanes`` per batch (None: chosen
+    per CPU).  Yields (task, SampleResult or None, error text or None) per task as it
+    finishes; a task that raises (its noise draw, the fault hook) gets its error and the
+    others go on.  ``tasks`` is read lazily, a task when a lane frees up."""
+    it = iter(tasks)
+    pending = next(it, None)
+    while pending is not None:
+        head = pending
+        pending = None
+
+        def run_of_batch(first=head):
+            nonlocal pending
+            yield first
+            for t in it:
+                if not same_batch(first, t):
+                    pending = t
+                    return
+                yield t
+
+        yield from _run_batch(head, run_of_batch(), lanes)
+
+
+def run_group(tasks, lanes: int | None = None) -> list:
+    """:func:`iter_group` as a list (what a worker process returns for a group)."""
+    return list(iter_group(tasks, lanes))
+
+
+def _run_batch(first: EpisodeTask, tasks, lanes):
+    from ..core.batch import BatchRunner
+    from .backends import error_text
+
+    errors = []
+
+    def feed():
+        for t in tasks:
+            try:
+                fault_hook(t)
+                sample = t.noise_model.sample(t.seed)
+            except Exception as exc:  # noqa: BLE001 - a task's error is its outcome
+                errors.append((t, None, error_text(exc)))
+                continue
+            yield t, sample
+
+    runner = BatchRunner(first.design, first.config, lanes=lanes,
+                         record_trace=first.record_trace)
+    for task, r, cpu in runner.run(feed()):
+        yield from errors
+        errors.clear()
+        r.seed = task.seed
+        yield task, _result(task, r, cpu), None
+    yield from errors
 
 
 def fault_hook(task: EpisodeTask) -> None:
