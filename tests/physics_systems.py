@@ -6,7 +6,7 @@ import numpy as np
 from tethernet_ros.core import kernel as kn
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
-from tethernet_ros.core.scenario import Scenario
+from tethernet_ros.core.scenario import Scenario, ideal_control
 from tethernet_ros.core.target import Target
 
 
@@ -65,4 +65,5 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
         solver=kn.new_solver(0, nl, nb, 0),
         dt=dt, stable_step=dt, net_nodes=np.arange(nb, dtype=np.int64),
         corner_bodies=np.zeros(0, dtype=np.int64), close_threshold=1e9,
+        control=ideal_control(nb),
         iterations=cfg.implicit_iterations)

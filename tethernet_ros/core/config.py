@@ -13,7 +13,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace, asdict
 
+from .policies import PolicyConfig
+from .sensing import SensingConfig
 from .target import TargetConfig
+from .tumble import TumbleConfig
+
+#: nested settings: field -> its dataclass (a mapping in YAML / JSON)
+_NESTED = {"target": TargetConfig, "tumble": TumbleConfig, "sensing": SensingConfig,
+           "policy": PolicyConfig}
 
 
 class ConfigError(ValueError):
@@ -164,6 +171,9 @@ class SimConfig:
     implicit_dt: float = 1e-3
     implicit_impacts: str = "rebound"
     target: TargetConfig = field(default_factory=TargetConfig)
+    tumble: TumbleConfig = field(default_factory=TumbleConfig)
+    sensing: SensingConfig = field(default_factory=SensingConfig)
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
 
     def __post_init__(self):
         for name, (lo, hi, what) in _LIMITS.items():
@@ -186,8 +196,13 @@ class SimConfig:
             raise ConfigError("config field 'closing_indices': must be increasing grid indices "
                               f"from 0 to {self.grid_nodes - 1}")
         object.__setattr__(self, "closing_indices", idx)
-        if isinstance(self.target, dict):
-            object.__setattr__(self, "target", TargetConfig(**self.target))
+        for name, cls in _NESTED.items():
+            v = getattr(self, name)
+            if isinstance(v, dict):
+                object.__setattr__(self, name, _nested(name, cls, v))
+            elif not isinstance(v, cls):
+                raise ConfigError(f"config field '{name}': got {v!r}; must be a mapping of "
+                                  f"{cls.__name__} fields")
         for name in ("dt", "implicit_dt"):
             step = getattr(self, name)
             if step > 0:
@@ -220,6 +235,7 @@ class SimConfig:
     def to_dict(self) -> dict:
         d = asdict(self)
         d["closing_indices"] = list(self.closing_indices)
+        d["tumble"] = self.tumble.to_dict()
         return d
 
     @classmethod
@@ -233,13 +249,27 @@ class SimConfig:
             if k not in names:
                 raise ConfigError(f"config field '{k}': unknown; allowed fields are {sorted(names)}")
         data = dict(data)
-        if "target" in data and isinstance(data["target"], dict):
-            data["target"] = TargetConfig(**data["target"])
+        for name, ncls in _NESTED.items():
+            if name in data and isinstance(data[name], dict):
+                data[name] = _nested(name, ncls, data[name])
         if "closing_indices" in data:
             data["closing_indices"] = tuple(data["closing_indices"])
         if preset is not None:
             return cls.preset(preset, **data)
         return cls(**data)
+
+
+def _nested(name: str, cls, values: dict):
+    """A nested settings object from a mapping; unknown keys named in the error."""
+    allowed = {f.name for f in fields(cls)}
+    for k in values:
+        if k not in allowed:
+            raise ConfigError(f"config field '{name}.{k}': unknown; allowed fields are "
+                              f"{sorted(allowed)}")
+    try:
+        return cls(**values)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from exc
 
 
 #: Named models: field values that differ from the defaults.  The defaults are the

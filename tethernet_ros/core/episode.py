@@ -78,6 +78,13 @@ class CaptureSimulation:
         model = self.s.kernel()[0]   # set_params may have rebuilt it
         advance_kernel(self.cfg, model, self.data, self.scratch, n_steps)
 
+    def command_closing(self) -> bool:
+        """Start closing now, as a controller outside the kernel commands it (policy
+        'external'): the same as the kernel's own policy deciding at this step.  False if
+        closing was already active or is not armed."""
+        from .kernel.events import command_closing
+        return bool(command_closing(self.s.kernel()[0], self.data, self.s.lane))
+
     @property
     def contact_count(self) -> int:
         """Body-steps spent in contact with the target so far."""

@@ -18,11 +18,14 @@ import numpy as np
 from . import detmath
 
 #: Noise sources whose spread can be scaled (sensitivity study).
-NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing")
+NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing",
+                                  "spin")
 
 #: The NoiseModel fields that hold a spread (the actuator node takes them as parameters).
 SPREAD_FIELDS: tuple[str, ...] = ("sigma_distance", "sigma_orientation_deg", "sigma_speed",
-                                  "sigma_polar_deg", "azimuth_range_deg", "sigma_closing")
+                                  "sigma_polar_deg", "azimuth_range_deg", "sigma_closing",
+                                  "sigma_spin_rate", "sigma_spin_axis_deg",
+                                  "spin_phase_range_deg")
 
 #: Corner order used everywhere: signs (s_x, s_y) of each corner's launch velocity.
 CORNER_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
@@ -44,6 +47,11 @@ class NoiseSample:
     azimuth_angles: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
     closing_offset: float = 0.0
     orientation_axis: str = "z"
+    spin_rate_offset: float = 0.0
+    spin_axis_tilt: float = 0.0
+    spin_axis_azimuth: float = 0.0
+    spin_phase: float = 0.0
+    spin_transverse_angle: float = 0.0
 
     @classmethod
     def nominal(cls, orientation_axis: str = "z") -> NoiseSample:
@@ -68,7 +76,10 @@ class NoiseModel:
 
     sigma_distance (m), sigma_orientation_deg (deg), sigma_speed (m/s),
     sigma_polar_deg (deg), azimuth_range_deg (deg, uniform on [0, range)),
-    sigma_closing (m); orientation_axis 'z' (line of sight, default) or 'y'.
+    sigma_closing (m); orientation_axis 'z' (line of sight, default) or 'y'.  The tumble's
+    (``core.tumble``, acting only when its rate is > 0): sigma_spin_rate (relative, of the
+    rate), sigma_spin_axis_deg (tilt of the axis, deg, in a uniform direction),
+    spin_phase_range_deg (initial phase uniform on [0, range) deg).
     """
 
     sigma_distance: float = 0.25
@@ -77,6 +88,9 @@ class NoiseModel:
     sigma_polar_deg: float = 2.0
     azimuth_range_deg: float = 360.0
     sigma_closing: float = 0.1
+    sigma_spin_rate: float = 0.1
+    sigma_spin_axis_deg: float = 5.0
+    spin_phase_range_deg: float = 360.0
     orientation_axis: str = "z"
     scales: dict = field(default_factory=lambda: {s: 1.0 for s in NOISE_SOURCES})
 
@@ -110,9 +124,11 @@ class NoiseModel:
         """Draw every noise of one sample from ``numpy.random.default_rng(seed)``.
 
         The draw order is fixed (distance, orientation, then per corner speed, polar,
-        azimuth, then closing), and every quantity is drawn whatever its scale, so sample i
+        azimuth, then closing, then the tumble's rate, axis tilt and its direction, phase
+        and transverse angle), and every quantity is drawn whatever its scale, so sample i
         gets the same underlying random numbers under every design and scale (common random
-        numbers).
+        numbers); the tumble's draws come last, so every earlier draw is what it was
+        before the tumble existed.
         """
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise NoiseError(f"noise field 'seed': got {seed!r}; must be an integer >= 0")
@@ -128,8 +144,14 @@ class NoiseModel:
             z_polar[i] = normal(rng)
             u_azim[i] = rng.random()
         z_close = normal(rng)
+        z_spin_rate = normal(rng)
+        z_spin_tilt = normal(rng)
+        u_spin_dir = rng.random()
+        u_spin_phase = rng.random()
+        u_transverse = rng.random()
         s = self.scales
         deg = math.pi / 180.0
+        turn = 2.0 * math.pi
         return NoiseSample(
             seed=int(seed),
             distance_offset=float(z_dist * self.sigma_distance * s["distance"]),
@@ -139,6 +161,11 @@ class NoiseModel:
             azimuth_angles=tuple(float(v) for v in u_azim * self.azimuth_range_deg * deg * s["azimuth"]),
             closing_offset=float(z_close * self.sigma_closing * s["closing"]),
             orientation_axis=self.orientation_axis,
+            spin_rate_offset=float(z_spin_rate * self.sigma_spin_rate * s["spin"]),
+            spin_axis_tilt=float(z_spin_tilt * self.sigma_spin_axis_deg * deg * s["spin"]),
+            spin_axis_azimuth=float(u_spin_dir * turn),
+            spin_phase=float(u_spin_phase * self.spin_phase_range_deg * deg * s["spin"]),
+            spin_transverse_angle=float(u_transverse * turn),
         )
 
 

@@ -11,6 +11,10 @@ import numpy as np
 
 from . import detmath
 from . import kernel as kn
+from .kernel.model import reference_point
+from .policies import PolicyConfig
+from .sensing import TARGET_POSITIONS, SensingConfig, seed_state
+from .tumble import TumbleConfig, axis_quaternion, quat_multiply, spin_of
 from .config import SimConfig
 from .design import Design
 from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
@@ -36,11 +40,15 @@ class Actions:
 class World:
     """The target's actual placement: distance of its centre from the launch point along z
     (m) and its rotation about ``rotation_axis`` ('z' or 'y') from the nominal attitude
-    (long axis along +x) (rad)."""
+    (long axis along +x) (rad); its tumble (``core.tumble``): spin_rate (rad/s) about the
+    body-frame unit axis spin_axis, the attitude first turned by spin_phase (rad) about it."""
 
     distance: float
     rotation: float = 0.0
     rotation_axis: str = "z"
+    spin_rate: float = 0.0
+    spin_axis: tuple = (0.0, 1.0, 0.0)
+    spin_phase: float = 0.0
 
 
 def actions_for(design: Design, sample: NoiseSample | None) -> Actions:
@@ -50,12 +58,36 @@ def actions_for(design: Design, sample: NoiseSample | None) -> Actions:
     return Actions(corner_velocities=cv, closing_displacement=design.d_c + off)
 
 
-def world_for(design: Design, sample: NoiseSample | None) -> World:
-    """Actual target placement: the world's share of the noise."""
+def world_for(design: Design, sample: NoiseSample | None,
+              tumble: TumbleConfig | None = None) -> World:
+    """Actual target placement and tumble: the world's share of the noise."""
+    spin = {}
+    if tumble is not None and not tumble.at_rest:
+        axis, rate, phase = spin_of(tumble, sample)
+        spin = dict(spin_rate=rate, spin_axis=tuple(float(c) for c in axis), spin_phase=phase)
     if sample is None:
-        return World(distance=design.d_L)
+        return World(distance=design.d_L, **spin)
     return World(distance=design.d_L + sample.distance_offset, rotation=sample.orientation_angle,
-                 rotation_axis=sample.orientation_axis)
+                 rotation_axis=sample.orientation_axis, **spin)
+
+
+def initial_attitude(world: World, inertia: np.ndarray):
+    """(quaternion, world angular velocity (rad/s), world angular momentum (kg m^2/s)) of
+    the target at the start: the orientation noise's rotation, then the tumble's phase
+    about its axis, spinning at its rate (IEEE operations only)."""
+    q = rotation_quaternion(world.rotation, world.rotation_axis)
+    if world.spin_rate == 0.0:
+        return q, np.zeros(3), np.zeros(3)
+    axis = np.asarray(world.spin_axis, dtype=float)
+    q = quat_multiply(q, axis_quaternion(axis, world.spin_phase))
+    R = kn.quat_to_matrix(q)
+    w_body = world.spin_rate * axis
+    l_body = inertia * w_body
+    omega = np.array([R[c, 0] * w_body[0] + R[c, 1] * w_body[1] + R[c, 2] * w_body[2]
+                      for c in range(3)])
+    ang_mom = np.array([R[c, 0] * l_body[0] + R[c, 1] * l_body[1] + R[c, 2] * l_body[2]
+                        for c in range(3)])
+    return q, omega, ang_mom
 
 
 def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
@@ -98,6 +130,8 @@ class Scenario:
     corner_bodies: np.ndarray
     close_threshold: float = 0.0
     iterations: int = 4
+    control: kn.ControlModel | None = None
+    sensor_seed: int = 0
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
     lane: int = field(default=0, repr=False, compare=False)
 
@@ -114,15 +148,17 @@ class Scenario:
     def _build_model(self) -> kn.Model:
         from .kernel.model import build_model
         return build_model(self.bodies, self.grid, self.links, self.drawstring, self.tether,
-                           self.target_body, self.params, self.iterations)
+                           self.target_body, self.control, self.params, self.iterations)
 
     def kernel(self) -> tuple[kn.Model, kn.Data]:
         """The kernel's (Model, Data) of this episode: on first call a Data of one lane is
         built and the parts become views of it; after :meth:`attach`, the batch's."""
         if self._kernel is None:
             from .kernel.data import one_lane
+            ct = self.control
             data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
-                            self.close_threshold, self.events, self.solver)
+                            self.close_threshold, self.events, self.solver,
+                            ct.latency // ct.period + 2, self.sensor_seed)
             self._kernel = (self._build_model(), data)
             self._bind(data, 0)
         return self._kernel
@@ -215,6 +251,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
 
     target = Target(cfg.target)
     verts, offsets = target.packed_polygons()
+    quat, omega, ang_mom = initial_attitude(world, target.inertia)
     net_nodes = np.arange(lay.n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,
@@ -230,10 +267,9 @@ def build_scenario(design: Design, actions: Actions, world: World,
         tether=kn.Tether(nodes=np.arange(lay.tether0, lay.chaser, dtype=np.int64),
                          links=other.tether_links, centre=lay.centre, winch=lay.chaser),
         target_body=kn.TargetBody(
-            pos=np.array([0.0, 0.0, world.distance]),
-            quat=rotation_quaternion(world.rotation, world.rotation_axis),
-            vel=np.zeros(3), omega=np.zeros(3), ang_mom=np.zeros(3), inertia=target.inertia.copy(),
-            cyl=target.cylinder(), verts=verts, offsets=offsets),
+            pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
+            ang_mom=ang_mom, inertia=target.inertia.copy(), cyl=target.cylinder(), verts=verts,
+            offsets=offsets),
         params=kernel_params(design, cfg, th, target.bounding_radius, omega_1),
         close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),
@@ -246,10 +282,54 @@ def build_scenario(design: Design, actions: Actions, world: World,
                                        k_contact=k_contact, c_contact=c_contact)
     sc.dt = cfg.step_for(sc.stable_step)
     sc.set_params(dt=sc.dt)
+    sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
     return sc
+
+
+def control_model(sensing: SensingConfig, policy: PolicyConfig, dt: float, planned_z: float,
+                  lay: BodyLayout, mass: np.ndarray) -> kn.ControlModel:
+    """The kernel's sensing and policy settings (``core.sensing``, ``core.policies``): the
+    net's reference point as nodes and weights (masses for a centre of mass, 1 for the
+    corner masses' centroid and the centre node), the control period and latency in steps,
+    the noise in radians."""
+    net = np.arange(lay.n_net, dtype=np.int64)
+    corners = np.asarray(lay.corner_bodies, dtype=np.int64)
+    if sensing.net_point == "com":
+        nodes, weights = net, mass[net]
+    elif sensing.net_point == "centre":
+        nodes, weights = np.array([lay.centre], dtype=np.int64), np.ones(1)
+    elif sensing.net_point == "corners":
+        nodes, weights = corners, np.ones(len(corners))
+    else:
+        nodes = np.concatenate([net, corners])
+        weights = mass[nodes]
+    ref_nodes, ref_weights, ref_total = reference_point(nodes, weights)
+    deg = math.pi / 180.0
+    return kn.ControlModel(
+        policy=policy.index, period=sensing.period_steps(dt), latency=sensing.latency_steps(dt),
+        ref_nodes=ref_nodes, ref_weights=ref_weights, ref_total=ref_total,
+        target_position=TARGET_POSITIONS.index(sensing.target_position),
+        planned_z=float(planned_z), sigma_position=float(sensing.sigma_position),
+        sigma_attitude=sensing.sigma_attitude_deg * deg, sigma_rate=sensing.sigma_rate_deg_s * deg,
+        sigma_velocity=float(sensing.sigma_velocity), closing_time=float(policy.closing_time),
+        apex=bool(policy.apex))
 
 
 def scenario_for(design: Design, sample: NoiseSample | None = None,
                  config: SimConfig | None = None) -> Scenario:
     """Scenario of one Monte Carlo sample (or the nominal one if ``sample`` is None)."""
-    return build_scenario(design, actions_for(design, sample), world_for(design, sample), config)
+    cfg = config or SimConfig()
+    sc = build_scenario(design, actions_for(design, sample),
+                        world_for(design, sample, cfg.tumble), cfg)
+    sc.sensor_seed = seed_state(None if sample is None else sample.seed)
+    return sc
+
+
+def ideal_control(n_ref: int) -> kn.ControlModel:
+    """Ideal sensing at every step and the threshold policy, with the unweighted mean of
+    bodies 0..n_ref-1 as the net's reference point (hand-made test systems)."""
+    nodes, weights, total = reference_point(np.arange(n_ref), np.ones(n_ref))
+    return kn.ControlModel(policy=0, period=1, latency=0, ref_nodes=nodes, ref_weights=weights,
+                           ref_total=total, target_position=0, planned_z=0.0,
+                           sigma_position=0.0, sigma_attitude=0.0, sigma_rate=0.0,
+                           sigma_velocity=0.0, closing_time=0.0, apex=False)

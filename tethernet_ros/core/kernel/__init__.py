@@ -12,7 +12,7 @@ from .data import Data, copy_lane, empty_like, lane_count, take
 from .explicit import advance_explicit
 from .geometry import quat_to_matrix, target_signed_distance
 from .implicit import advance_implicit
-from .model import Model, assemble
+from .model import ControlModel, Model
 from .scratch import Scratch, new_scratch
 from .stability import stable_step
 from .state import (CONTACT_MODELS, E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP,
@@ -21,7 +21,7 @@ from .state import (CONTACT_MODELS, E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING
                     empty_drawstring, empty_grid, new_diagnostics, new_events, new_solver)
 
 __all__ = ["CONTACT_MODELS", "LOCK_MODELS", "THREAD_DAMPING_MODELS", "Data", "Model", "Scratch",
-           "advance_explicit", "advance_implicit", "assemble", "copy_lane", "empty_like",
+           "advance_explicit", "advance_implicit", "ControlModel", "copy_lane", "empty_like",
            "lane_count", "new_scratch", "take", "Solver", "new_solver", "quat_to_matrix",
            "target_signed_distance", "stable_step",
            "E_CLOSING_ACTIVE", "E_CLOSING_ARMED", "E_CLOSING_STEP", "E_STEP", "E_TETHER_LOCKED",

@@ -37,9 +37,19 @@ TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom")
 #: (N, K) (>= 0), contact_pt (N, 3, K) friction, lock_p (P, K).
 WarmStart = namedtuple("WarmStart", "grid_ph grid_pv link_p contact_pn contact_pt lock_p")
 
-#: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the z_rel (m) that
-#: starts closing; contact_count (K,): body-steps in contact; max_penetration (K,) (m).
-Data = namedtuple("Data", "bodies links ring target warm events close_threshold "
+#: The sensor (``core.sensing``): rng (K,) uint64 its generator's state; buf (B, C, K)
+#: the last B measurements, taken (B, K) the step each was taken at (-1: none), head
+#: (K,) the slot of the next one.
+SensorData = namedtuple("SensorData", "rng buf taken head")
+
+#: The closing policy's memory (``core.policies``): prev_zrel (K,) the last sensed z_rel
+#: (m), has_prev (K,) uint8.
+PolicyData = namedtuple("PolicyData", "prev_zrel has_prev")
+
+#: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the closing
+#: displacement d_c of the episode (m); contact_count (K,): body-steps in contact;
+#: max_penetration (K,) (m).
+Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
                           "contact_count max_penetration")
 
 
@@ -49,8 +59,10 @@ def _lanes(a, dtype=np.float64) -> np.ndarray:
 
 
 def one_lane(bodies, links, drawstring, target_body, close_threshold: float, events,
-             solver) -> Data:
-    """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero)."""
+             solver, sensor_slots: int, sensor_seed: int) -> Data:
+    """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero);
+    a sensor buffer of ``sensor_slots`` measurements and its generator's seed."""
+    from ..sensing import N_CHANNELS
     return Data(
         bodies=BodyData(x=_lanes(bodies.x), v=_lanes(bodies.v), w=_lanes(bodies.w),
                         mass=_lanes(bodies.mass), contact_mask=_lanes(bodies.contact_mask, np.uint8),
@@ -68,6 +80,11 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
                        contact_pt=_lanes(solver.contact_pt), lock_p=_lanes(solver.lock_p)),
         events=_lanes(events, np.int64),
         close_threshold=np.array([float(close_threshold)]),
+        sensor=SensorData(rng=np.array([sensor_seed], dtype=np.uint64),
+                          buf=np.zeros((sensor_slots, N_CHANNELS, 1)),
+                          taken=np.full((sensor_slots, 1), -1, dtype=np.int64),
+                          head=np.zeros(1, dtype=np.int64)),
+        policy=PolicyData(prev_zrel=np.zeros(1), has_prev=np.zeros(1, dtype=np.uint8)),
         contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1))
 
 

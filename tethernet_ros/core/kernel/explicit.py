@@ -71,5 +71,5 @@ def advance_explicit(model, data, scr, n_steps):
                 project_locks(model, data, scr, l)
             ev[E_STEP, l] += 1
             # 7. events: closing trigger, winch lock, drawstring locks
-            closing_events(model, data, l)
+            closing_events(model, data, scr, l)
     return 0

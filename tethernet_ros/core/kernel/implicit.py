@@ -111,5 +111,5 @@ def advance_implicit(model, data, scr, n_steps):
             integrate_target(model, data, scr, l, px / h, py / h, pz / h, lx / h, ly / h,
                              lz / h, h)
             ev[E_STEP, l] += 1
-            closing_events(model, data, l)
+            closing_events(model, data, scr, l)
     return 0

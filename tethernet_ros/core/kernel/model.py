@@ -30,9 +30,20 @@ GridModel = namedtuple("GridModel", "n rest kh ch kv cv hconst vconst")
 #: body is the thread's first end.
 LinkModel = namedtuple("LinkModel", "pairs slots signs")
 
-#: The drawstring: pairs (P, 2) of adjacent ring bodies; trigger_nodes: the bodies whose
-#: centre of mass the closing trigger follows, and their total mass (kg).
-RingModel = namedtuple("RingModel", "pairs trigger_nodes trigger_mass")
+#: The drawstring: pairs (P, 2) of adjacent ring bodies.
+RingModel = namedtuple("RingModel", "pairs")
+
+#: Sensing and the closing policy (``core.sensing``, ``core.policies``): policy (index
+#: into policies.POLICIES); period: steps between measurements (the control period);
+#: latency (steps); the net's reference point: the mean of ref_nodes weighted by
+#: ref_weights (kg, or 1), over ref_total; target_position (sensing.TARGET_*) and the
+#: planned target distance planned_z (m); noise: sigma_position (m), sigma_attitude (rad),
+#: sigma_rate (rad/s), sigma_velocity (m/s); the adaptive policy's closing_time (s) and
+#: apex (bool).
+ControlModel = namedtuple("ControlModel", "policy period latency ref_nodes ref_weights ref_total "
+                                          "target_position planned_z sigma_position "
+                                          "sigma_attitude sigma_rate sigma_velocity "
+                                          "closing_time apex")
 
 #: The main tether: nodes (T,) its lumped masses, links (T + 1,) its segments (indices into
 #: the other threads), centre the net's centre node, winch the body carrying the winch.
@@ -43,7 +54,7 @@ TetherModel = namedtuple("TetherModel", "nodes links centre winch")
 TargetModel = namedtuple("TargetModel", "inertia cyl verts offsets")
 
 #: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step.
-Model = namedtuple("Model", "bodies grid links ring tether target params iterations")
+Model = namedtuple("Model", "bodies grid links ring tether target control params iterations")
 
 
 def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
@@ -62,8 +73,8 @@ def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
     return out
 
 
-def build_model(bodies, grid, links, drawstring, tether, target_body, params: Params,
-                iterations: int) -> Model:
+def build_model(bodies, grid, links, drawstring, tether, target_body, control: ControlModel,
+                params: Params, iterations: int) -> Model:
     """The constant model of an episode's parts (``state``)."""
     n = grid.n
     w = np.asarray(bodies.w, dtype=np.float64)
@@ -75,32 +86,26 @@ def build_model(bodies, grid, links, drawstring, tether, target_body, params: Pa
     else:
         hconst = np.zeros((0, 0, 4))
         vconst = np.zeros((0, 0, 4))
-    trigger_mass = 0.0
-    for k in drawstring.trigger_nodes:
-        trigger_mass += float(bodies.mass[k])
     return Model(
         bodies=BodyModel(radius=np.ascontiguousarray(bodies.radius, dtype=np.float64),
                          k_contact=np.ascontiguousarray(bodies.k_contact, dtype=np.float64)),
         grid=GridModel(n=int(n), rest=float(grid.rest), kh=grid.kh, ch=grid.ch, kv=grid.kv,
                        cv=grid.cv, hconst=hconst, vconst=vconst),
         links=LinkModel(pairs=links.pairs, slots=links.node_links, signs=links.node_sign),
-        ring=RingModel(pairs=drawstring.pairs, trigger_nodes=drawstring.trigger_nodes,
-                       trigger_mass=trigger_mass),
+        ring=RingModel(pairs=drawstring.pairs),
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
                            winch=int(tether.winch)),
         target=TargetModel(inertia=np.ascontiguousarray(target_body.inertia, dtype=np.float64),
                            cyl=target_body.cyl, verts=target_body.verts,
                            offsets=target_body.offsets),
-        params=params, iterations=int(iterations))
+        control=control, params=params, iterations=int(iterations))
 
 
-def assemble(bodies, grid, links, drawstring, tether, target_body, params: Params,
-             iterations: int, close_threshold: float, events, solver):
-    """(Model, Data with one lane) of an episode's parts (``state``): constants into the
-    model, everything a step changes into the data (fresh arrays, lane axis last)."""
-    from .data import one_lane
-
-    model = build_model(bodies, grid, links, drawstring, tether, target_body, params,
-                        iterations)
-    return model, one_lane(bodies, links, drawstring, target_body, close_threshold, events,
-                           solver)
+def reference_point(nodes, weights) -> tuple[np.ndarray, np.ndarray, float]:
+    """(nodes, weights, their sum in node order) of a reference point, as the sensing
+    kernel sums them."""
+    total = 0.0
+    for wgt in weights:
+        total += float(wgt)
+    return (np.ascontiguousarray(nodes, dtype=np.int64),
+            np.ascontiguousarray(weights, dtype=np.float64), total)

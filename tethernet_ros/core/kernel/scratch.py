@@ -8,6 +8,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from ..sensing import N_CHANNELS
+
 #: Row components of a thread or lock row: unit direction (x, y, z), bias b (m/s),
 #: compliance gamma (1/kg), 1 / (w_a + w_b + gamma) (kg).
 RX, RY, RZ, RB, RG, RIK = range(6)
@@ -25,9 +27,10 @@ LockRows = namedtuple("LockRows", "normal b ik")
 #: (x-thread (i, j) at i (n + 1) + j + 1); U ((n + 1) n, 3, K): y-threads (y-thread (i, j)
 #: at (i + 1) n + j); EF (M, 3, K): force of each other thread on its first end; pair_f
 #: (P, 3, K), acc (N, 3, K), lock_count (N, K), lock_sep (P, 3, K): drawstring scratch;
-#: R (3, 3, K): the target's rotation matrix; Lb (3, K): its body angular momentum.
+#: R (3, 3, K): the target's rotation matrix; Lb (3, K): its body angular momentum;
+#: meas (C,): a measurement being taken (``core.sensing``).
 Scratch = namedtuple("Scratch", "F H U EF pair_f acc lock_count lock_sep R Lb "
-                                "grid_h grid_v links contacts locks")
+                                "grid_h grid_v links contacts locks meas")
 
 
 def new_scratch(model, lanes: int) -> Scratch:
@@ -48,4 +51,5 @@ def new_scratch(model, lanes: int) -> Scratch:
                              b=np.zeros((N, K)), g=np.zeros((N, K)), ik=np.zeros((N, K)),
                              bodies=np.zeros((N, K), dtype=np.int64),
                              count=np.zeros(K, dtype=np.int64)),
-        locks=LockRows(normal=np.zeros((P, 3, K)), b=np.zeros((P, K)), ik=np.zeros((P, K))))
+        locks=LockRows(normal=np.zeros((P, 3, K)), b=np.zeros((P, K)), ik=np.zeros((P, K))),
+        meas=np.zeros(N_CHANNELS))
