@@ -18,6 +18,7 @@ from .design import Design
 from .metrics import CQITerms, capture_quality_index, capture_verdict
 from .noise import NoiseSample
 from .scenario import Actions, Scenario, World, actions_for, build_scenario, world_for
+from .sensing import seed_state
 
 
 class CaptureSimulation:
@@ -320,15 +321,18 @@ def run_episode(design: Design, sample: NoiseSample | None = None, config: SimCo
     """
     cfg = config or SimConfig()
     actions = actions_for(design, sample)
-    world = world_for(design, sample)
+    world = world_for(design, sample, cfg.tumble)
     return run_actions(design, actions, world, cfg, record_trace,
                        seed=None if sample is None else sample.seed)
 
 
 def run_actions(design: Design, actions: Actions, world: World, config: SimConfig,
                 record_trace: bool = True, seed: int | None = None, observer=None) -> EpisodeResult:
-    """Episode from explicit actions and world placement (the ROS path uses this)."""
-    sim = CaptureSimulation(build_scenario(design, actions, world, config))
+    """Episode from explicit actions and world placement (the ROS path uses this); the
+    sensor's noise is seeded with ``seed`` (``core.sensing``)."""
+    sc = build_scenario(design, actions, world, config)
+    sc.sensor_seed = seed_state(seed)
+    sim = CaptureSimulation(sc)
     res = run_simulation(sim, record_trace=record_trace, observer=observer)
     res.seed = seed
     return res

@@ -118,3 +118,28 @@ def decide(model, data, l, meas) -> bool:
     pd.prev_zrel[l] = zrel
     pd.has_prev[l] = 1
     return at_apex
+
+
+@njit(cache=True, error_model='numpy')
+def _decide_one(model, data, meas):
+    return decide(model, data, 0, meas)
+
+
+class Policy:
+    """The closing policy of one episode outside the kernel (the ROS actuator node): the
+    kernel's :func:`decide` on its own memory, for the episode's model and closing
+    displacement, so the same measurements give the same decision, bit for bit."""
+
+    def __init__(self, model, close_threshold: float):
+        from collections import namedtuple
+
+        from .kernel.data import PolicyData
+
+        self._model = namedtuple("PolicyModel", "control target")(model.control, model.target)
+        self._data = namedtuple("PolicyLane", "close_threshold policy")(
+            np.array([float(close_threshold)]),
+            PolicyData(prev_zrel=np.zeros(1), has_prev=np.zeros(1, dtype=np.uint8)))
+
+    def decide(self, meas: np.ndarray) -> bool:
+        """Whether closing starts now, given the newest measurement."""
+        return bool(_decide_one(self._model, self._data, np.asarray(meas, dtype=np.float64)))

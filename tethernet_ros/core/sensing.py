@@ -214,19 +214,14 @@ def add_noise(ct, state, l, out):
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def sense(model, data, scr, l) -> int:
-    """Take lane l's measurement of this step into its sensor buffer; return the buffer
-    slot of the newest measurement the controller has by now (taken at least the latency
-    ago), or -1 if none has arrived yet."""
-    ct = model.control
-    sd = data.sensor
-    slot = sd.head[l]
-    out = scr.meas
-    truth_into(model, data, l, out)
+def buffer_measurement(ct, sd, l, out, step) -> int:
+    """Add noise to the true measurement ``out`` taken at ``step``, store it in lane l's
+    sensor buffer ``sd``; return the slot of the newest measurement the controller has by
+    now (taken at least the latency ago), or -1 if none has arrived yet."""
     add_noise(ct, sd.rng, l, out)
+    slot = sd.head[l]
     for c in range(out.shape[0]):
         sd.buf[slot, c, l] = out[c]
-    step = data.events[0, l]
     sd.taken[slot, l] = step
     sd.head[l] = (slot + 1) % sd.taken.shape[0]
     best = -1
@@ -237,3 +232,47 @@ def sense(model, data, scr, l) -> int:
             best = s
             best_step = t
     return best
+
+
+@njit(cache=True, error_model='numpy')
+def _truth_of_lane(model, data, l):
+    out = np.zeros(N_CHANNELS)
+    truth_into(model, data, l, out)
+    return out
+
+
+@njit(cache=True, error_model='numpy')
+def _measure_one(ct, sd, truth, step):
+    out = truth.copy()
+    slot = buffer_measurement(ct, sd, 0, out, step)
+    if slot < 0:
+        return np.full(N_CHANNELS, np.nan)
+    return sd.buf[slot, :, 0].copy()
+
+
+def true_measurement(model, data, lane: int) -> np.ndarray:
+    """The true measurement (N_CHANNELS,) of one lane now (what an ideal sensor gives)."""
+    return _truth_of_lane(model, data, lane)
+
+
+class Sensor:
+    """The sensor of one episode outside the kernel (the ROS sensor node): the same noise,
+    buffer and latency as the kernel's for the same control settings and seed, so the
+    same true measurements give the same sensed ones, bit for bit."""
+
+    def __init__(self, control, seed_state_: int):
+        from .kernel.data import SensorData
+
+        self.control = control
+        slots = control.latency // control.period + 2
+        self.state = SensorData(rng=np.array([seed_state_], dtype=np.uint64),
+                                buf=np.zeros((slots, N_CHANNELS, 1)),
+                                taken=np.full((slots, 1), -1, dtype=np.int64),
+                                head=np.zeros(1, dtype=np.int64))
+
+    def measure(self, truth: np.ndarray, step: int) -> np.ndarray | None:
+        """The measurement the controller has at ``step`` after a true measurement taken
+        then (None until the first has arrived)."""
+        out = _measure_one(self.control, self.state, np.asarray(truth, dtype=np.float64),
+                           int(step))
+        return None if np.isnan(out[0]) else out

@@ -7,10 +7,19 @@ from __future__ import annotations
 from numba import njit
 
 from ..policies import POLICY_EXTERNAL, decide
-from ..sensing import sense
+from ..sensing import buffer_measurement, truth_into
 from .drawstring import update_locks
 from .state import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
 from .tether import lock_tether
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def sense(model, data, scr, l) -> int:
+    """Take lane l's measurement of this step (:func:`truth_into`,
+    :func:`buffer_measurement`); the slot of the newest one the controller has, or -1."""
+    out = scr.meas
+    truth_into(model, data, l, out)
+    return buffer_measurement(model.control, data.sensor, l, out, data.events[E_STEP, l])
 
 
 @njit(cache=True, inline='always', error_model='numpy')
