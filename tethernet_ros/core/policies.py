@@ -43,7 +43,7 @@ class PolicyConfig:
     apex: the adaptive policy also closes at the net's apex."""
 
     kind: str = "threshold"
-    closing_time: float = 4.0
+    closing_time: float = 0.6
     apex: bool = True
 
     def __post_init__(self):
