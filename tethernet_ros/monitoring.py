@@ -16,7 +16,7 @@ import numpy as np
 from .core import kernel as kn
 from .core.config import SimConfig
 from .core.design import Design
-from .core.episode import CaptureSimulation, EpisodeResult, episode_result
+from .core.episode import CaptureSimulation, EpisodeClock, EpisodeResult, episode_result
 from .core.metrics import CQITerms
 from .core.scenario import Actions, World, build_scenario
 
@@ -30,13 +30,9 @@ class StateMirror:
         self.design = design
         self.config = config
         self.sim = CaptureSimulation(build_scenario(design, actions, world, config))
-        dt = self.sim.dt
-        # run_simulation tests for divergence after every chunk of this many steps (and at
-        # the end step); a verdict on divergence is taken at those steps only, as there
-        metric_every = int(round(1.0 / (config.metric_rate * dt)))
-        state_every = (max(1, int(round(1.0 / (config.state_rate * dt))))
-                       if config.state_rate > 0 else 0)
-        self.check_every = metric_every if not state_every else math.gcd(metric_every, state_every)
+        # run_simulation tests for divergence at its clock's steps (and at the end step); a
+        # verdict on divergence is taken at those steps only, as there
+        self.check_every = EpisodeClock(config, self.sim.dt).chunk
 
     @property
     def dt(self) -> float:

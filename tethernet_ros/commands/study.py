@@ -5,6 +5,10 @@ random numbers, with its table and figure written under docs/studies/.
                to the source's text, and all of the text together
   convergence  the default against half its step (P*_s, flipped verdicts, mean T)
   agreement    the default integrator against the other one on the same model
+  trigger      which point the closing trigger follows: the net's reference points and the
+               planned target distance (docs/model.md §14)
+  tumbling     the target spinning at 0.5-8 deg/s about each axis, threshold and adaptive
+               policies side by side (designs may be YAML files, e.g. the Case optima)
   compare      two results files (e.g. of `tethernet validate` at two commits or with two
                configurations), matched by design and seed: --a FILE --b FILE
 
@@ -39,7 +43,8 @@ def add_arguments(p):
     p.add_argument("--name", default=None, metavar="NAME",
                    help="file name of the table and figure (default: the study's name)")
     p.add_argument("--designs", default=",".join(REFERENCE_DESIGNS), metavar="A,B",
-                   help="reference designs (default: all four)")
+                   help="reference designs or design YAML files (default: the four reference "
+                        "designs)")
     p.add_argument("--samples", type=int, default=200, metavar="N",
                    help="samples per cell and design (default 200)")
     p.add_argument("--seed", type=int, default=0, metavar="BASE", help="base seed (default 0)")
@@ -65,9 +70,16 @@ def run(args) -> int:
     if args.study == "compare":
         return _compare(args, designs)
     check_backend_arguments(args)
+    design_of = {}
     for d in designs:
-        if d not in REFERENCE_DESIGNS:
-            raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)}")
+        if d in REFERENCE_DESIGNS:
+            design_of[d] = REFERENCE_DESIGNS[d]
+        elif d.endswith((".yaml", ".yml")) and Path(d).is_file():
+            from ..core.design import load_design
+            design_of[d] = load_design(d)
+        else:
+            raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)} "
+                            "or a design YAML file")
     if args.samples < 1:
         raise UserError(f"--samples {args.samples}: must be an integer >= 1")
     base = config_from_args(args)
@@ -78,7 +90,7 @@ def run(args) -> int:
         if unknown:
             raise UserError(f"--cells: unknown {sorted(unknown)}; allowed {[c.label for c in cells]}")
         cells = [cells[0]] + [c for c in cells[1:] if c.label in keep]
-    specs = [RunSpec(REFERENCE_DESIGNS[d], noise_model=c.noise, config=c.config,
+    specs = [RunSpec(design_of[d], noise_model=c.noise, config=c.config,
                      label=f"{c.label}|{d}") for c in cells for d in designs]
     results = Path(args.results or f"out/studies/{args.study}_seed{args.seed}.jsonl")
     results.parent.mkdir(parents=True, exist_ok=True)

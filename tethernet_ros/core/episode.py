@@ -166,6 +166,13 @@ class EpisodeTrace:
     target_pose: list = field(default_factory=list)    # each [x, y, z, qw, qx, qy, qz]
 
 
+#: The fields of an episode's result that leave the process (JSON, results files, ROS
+#: messages), in this order: the one home of the list.
+RESULT_FIELDS: tuple[str, ...] = ("success", "settled_cqi", "locked_pairs", "closing_time",
+                                  "completion_time", "mass", "failure_reason", "wall_time",
+                                  "seed", "steps", "max_penetration", "settled_terms")
+
+
 @dataclass
 class EpisodeResult:
     """Outcome of one capture.  Times in s, mass in kg; NaN where undefined."""
@@ -185,9 +192,7 @@ class EpisodeResult:
     trace: EpisodeTrace | None = None
 
     def to_dict(self, with_trace: bool = False) -> dict:
-        d = {k: getattr(self, k) for k in ("success", "settled_cqi", "locked_pairs", "closing_time",
-                                          "completion_time", "mass", "failure_reason", "wall_time",
-                                          "seed", "steps", "max_penetration", "settled_terms")}
+        d = {k: getattr(self, k) for k in RESULT_FIELDS}
         for k in ("settled_cqi", "closing_time", "completion_time"):
             if isinstance(d[k], float) and not math.isfinite(d[k]):
                 d[k] = None

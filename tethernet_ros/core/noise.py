@@ -27,6 +27,32 @@ SPREAD_FIELDS: tuple[str, ...] = ("sigma_distance", "sigma_orientation_deg", "si
                                   "sigma_spin_rate", "sigma_spin_axis_deg",
                                   "spin_phase_range_deg")
 
+#: Axes the target's orientation noise may turn it about: the line of sight z (default) or
+#: y (across it); the one home of this rule (docs/noise.md §2).
+ORIENTATION_AXES: tuple[str, ...] = ("z", "y")
+
+#: Allowed range of a noise source's scale factor (sensitivity study, docs/noise.md §6).
+SCALE_RANGE: tuple[float, float] = (0.0, 100.0)
+
+
+def check_orientation_axis(axis, field_name: str = "noise field 'orientation_axis'") -> str:
+    """The axis if allowed, else a NoiseError naming ``field_name`` and the choices."""
+    if axis not in ORIENTATION_AXES:
+        raise NoiseError(f"{field_name}: got {axis!r}; must be "
+                         + " or ".join(repr(a) for a in ORIENTATION_AXES))
+    return axis
+
+
+def check_scale(value, field_name: str) -> float:
+    """A scale factor if finite and within SCALE_RANGE, else a NoiseError naming it."""
+    lo, hi = SCALE_RANGE
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value) or not lo <= value <= hi:
+        raise NoiseError(f"{field_name}: got {value!r}; must be a finite factor in "
+                         f"[{lo:g}, {hi:g}]")
+    return float(value)
+
+
 #: Corner order used everywhere: signs (s_x, s_y) of each corner's launch velocity.
 CORNER_SIGNS = np.array([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]])
 
@@ -99,16 +125,12 @@ class NoiseModel:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise NoiseError(f"noise field '{name}': got {v!r}; must be a finite number >= 0")
-        if self.orientation_axis not in ("z", "y"):
-            raise NoiseError(f"noise field 'orientation_axis': got {self.orientation_axis!r}; "
-                             "must be 'z' or 'y'")
+        check_orientation_axis(self.orientation_axis)
         scales = {s: 1.0 for s in NOISE_SOURCES}
         for k, v in dict(self.scales).items():
             if k not in NOISE_SOURCES:
                 raise NoiseError(f"noise field 'scales.{k}': unknown source; allowed {list(NOISE_SOURCES)}")
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= 100):
-                raise NoiseError(f"noise field 'scales.{k}': got {v!r}; must be in [0, 100]")
-            scales[k] = float(v)
+            scales[k] = check_scale(v, f"noise field 'scales.{k}'")
         object.__setattr__(self, "scales", scales)
 
     def spreads(self) -> dict:

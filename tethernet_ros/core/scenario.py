@@ -20,7 +20,7 @@ from .design import Design
 from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
 from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses, other_threads,
                      stowed_state, thread_damping)
-from .noise import NoiseSample, corner_velocities
+from .noise import NoiseSample, check_orientation_axis, corner_velocities
 from .target import Target
 
 
@@ -216,8 +216,7 @@ def _check_inputs(actions: Actions, world: World) -> np.ndarray:
         raise ValueError(f"world field 'distance': got {world.distance}; must be > 0 m")
     if not math.isfinite(world.rotation):
         raise ValueError("world field 'rotation': must be finite (rad)")
-    if world.rotation_axis not in ("z", "y"):
-        raise ValueError("world field 'rotation_axis': must be 'z' or 'y'")
+    check_orientation_axis(world.rotation_axis, "world field 'rotation_axis'")
     return cv
 
 

@@ -4,6 +4,9 @@
 alone to what the source's text says (docs/model.md §1-5), then all of them together.
 ``convergence``: the default, the same with half the step and with twice the implicit
 solver's sweeps.  ``agreement``: the default integrator against the other one, same model.
+``trigger``: which point the closing trigger follows (docs/model.md §14): the net's
+reference points and the planned target distance.  ``tumbling``: the target spinning at
+each rate about each axis, under the threshold and the adaptive policy.
 """
 from __future__ import annotations
 
@@ -108,5 +111,53 @@ def agreement_cells(base: SimConfig) -> list[Cell]:
             Cell(other, f"the same model, {other} method", base.replace(integrator=other))]
 
 
-STUDIES = {"models": model_cells, "convergence": convergence_cells, "agreement": agreement_cells}
+def trigger_cells(base: SimConfig) -> list[Cell]:
+    """The source's trigger (the net's centre of mass against the sensed target), each
+    other net reference point, and the planned target distance instead of the sensed one."""
+    from ..core.sensing import SensingConfig
+
+    s = base.sensing
+    what = {"centre": "the net's centre node", "corners": "the centroid of the four corner masses",
+            "com_corners": "the centre of mass of the grid nodes and the corner masses"}
+    cells = [Cell("net CoM", "the source's trigger: the centre of mass of the grid nodes "
+                  "against the sensed target", base)]
+    for point, words in what.items():
+        cells.append(Cell(point.replace("_", " + "), f"{words} against the sensed target",
+                          base.replace(sensing=SensingConfig(**{**vars(s), "net_point": point}))))
+    cells.append(Cell("planned d_L", "the net's centre of mass against the planned target "
+                      "distance d_L (which the distance noise makes wrong)",
+                      base.replace(sensing=SensingConfig(**{**vars(s),
+                                                            "target_position": "planned"}))))
+    return cells
+
+
+#: the tumbling study's rates (deg/s) and axes (core.tumble.AXES)
+TUMBLE_RATES = (0.5, 1.0, 2.0, 4.0, 8.0)
+TUMBLE_AXES = ("flat", "los", "long")
+
+
+def tumbling_cells(base: SimConfig) -> list[Cell]:
+    """At rest, then each rate about each axis (random phase, the noise model's), each
+    under the threshold and the adaptive policy: label '<axis> <rate> <policy>'."""
+    from ..core.policies import PolicyConfig
+    from ..core.tumble import TumbleConfig
+
+    cells = []
+    for kind in ("threshold", "adaptive"):
+        pol = PolicyConfig(**{**vars(base.policy), "kind": kind})
+        cells.append(Cell(f"rest {kind}", f"target at rest, {kind} policy",
+                          base.replace(policy=pol)))
+    for axis in TUMBLE_AXES:
+        for rate in TUMBLE_RATES:
+            for kind in ("threshold", "adaptive"):
+                pol = PolicyConfig(**{**vars(base.policy), "kind": kind})
+                cells.append(Cell(f"{axis} {rate:g} {kind}",
+                                  f"{rate:g} deg/s about the {axis} axis, {kind} policy",
+                                  base.replace(tumble=TumbleConfig(rate_deg_s=rate, axis=axis),
+                                               policy=pol)))
+    return cells
+
+
+STUDIES = {"models": model_cells, "convergence": convergence_cells, "agreement": agreement_cells,
+           "trigger": trigger_cells, "tumbling": tumbling_cells}
 
