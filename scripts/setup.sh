@@ -41,10 +41,34 @@ venv_ok() {
         "$VENV/bin/python" -c 'import sys; assert sys.version_info[:2] == (3, 11)' 2>/dev/null
 }
 
+# --- numba's cache -----------------------------------------------------------------------
+# The kernels are compiled once (about a minute) into numba's on-disk cache beside the
+# sources, so that a user's first capture, a worker's first sample and a ROS node's start
+# load them in about a second.  numba invalidates a cached function when its own file
+# changes, not when a function inlined into it from another file does: the cache is
+# therefore cleared and rebuilt whenever any source of tethernet_ros/core changes.
+KERNEL_STAMP="$VENV/.tethernet-kernel-stamp"
+kernel_hash() {
+    find tethernet_ros/core -name '*.py' -print | LC_ALL=C sort | xargs cat | sha256sum | cut -d' ' -f1
+}
+warm_kernels_if_changed() {
+    local kh
+    kh="$(kernel_hash)"
+    if [ -f "$KERNEL_STAMP" ] && [ "$(cat "$KERNEL_STAMP")" = "$kh" ]; then
+        return 0
+    fi
+    find tethernet_ros \( -name '*.nbi' -o -name '*.nbc' \) -delete
+    log "compiling the numba kernels into their cache (about a minute)"
+    "$VENV/bin/python" -c 'from tethernet_ros.montecarlo.worker import warm_kernels; warm_kernels()' \
+        || die "kernel compilation failed"
+    echo "$kh" > "$KERNEL_STAMP"
+}
+
 # --- fast path -------------------------------------------------------------------------
 if [ -z "${TETHERNET_SETUP_FORCE:-}" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$HASH" ] \
    && venv_ok && [ -d "$VENV/share/tethernet_msgs" ] && [ -x "$VENV/bin/tethernet" ]; then
-    log "up to date (.venv, tethernet_msgs, editable install)"
+    warm_kernels_if_changed
+    log "up to date (.venv, tethernet_msgs, editable install, kernel cache)"
     exit 0
 fi
 
@@ -108,6 +132,8 @@ log "installing the project (editable)"
 "$VENV/bin/python" -c 'import rclpy, numba, numpy; from tethernet_msgs.msg import NetState; from tethernet_msgs.srv import RunCapture' \
     || die "import check failed"
 [ -x "$VENV/bin/tethernet" ] || die "console script .venv/bin/tethernet missing"
+
+warm_kernels_if_changed
 
 echo "$HASH" > "$STAMP"
 log "done"

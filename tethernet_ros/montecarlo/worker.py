@@ -110,6 +110,26 @@ def fault_hook(task: EpisodeTask) -> None:
             raise RuntimeError(f"injected fault on seed {task.seed}")
 
 
+def warm_kernels() -> None:
+    """Compile (or load from numba's cache) everything an episode runs: both step
+    methods, the sensing and policy code, the metrics; raises if compilation fails."""
+    from ..core.design import REFERENCE_DESIGNS
+    from ..core.episode import CaptureSimulation
+    from ..core.policies import Policy
+    from ..core.scenario import scenario_for
+    from ..core.sensing import Sensor, true_measurement
+
+    for integrator in ("implicit", "explicit"):
+        sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None,
+                                             SimConfig(integrator=integrator)))
+        sim.advance(2)
+        sim.cqi()
+    truth = true_measurement(sim.model, sim.data, 0)
+    Sensor(sim.model.control, 0).measure(truth, sim.step)
+    Policy(sim.model, 1.0).decide(truth)
+    sim.command_closing()
+
+
 def warm_worker() -> None:
     """Load the numba kernels from the on-disk cache (compile them if absent) with a few
     steps of a small episode, so that a fresh worker's first sample is not slower."""
