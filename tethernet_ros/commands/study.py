@@ -57,6 +57,13 @@ def add_arguments(p):
     p.add_argument("--out", default="docs/studies", metavar="DIR",
                    help="where the table (.md), summary (.json) and figure (.png) go")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--report-only", action="store_true",
+                   help="simulate nothing: report the samples already in the results file "
+                        "(a cell's n may then be below --samples)")
+    p.add_argument("--model-version", default=None, metavar="HEX",
+                   help="with --report-only: also read records of this model version (16 hex "
+                        "digits, montecarlo.keys.model_version of the core that wrote them; "
+                        "results files record it from now on)")
 
 
 def run(args) -> int:
@@ -104,19 +111,26 @@ def run(args) -> int:
             bar.total = total
             bar.n = done
             bar.refresh()
-    backend = backend_from_args(args)
-    try:
-        out = evaluate_many(specs, args.samples, args.seed, backend, results_path=results,
-                            progress=progress)
-    finally:
-        backend.close()
-    by_label = {r.label: r for r in out}
+    if args.report_only:
+        by_label = _from_file(specs, args.samples, args.seed, results, args.model_version)
+    else:
+        backend = backend_from_args(args)
+        try:
+            out = evaluate_many(specs, args.samples, args.seed, backend, results_path=results,
+                                progress=progress)
+        finally:
+            backend.close()
+        by_label = {r.label: r for r in out}
     stats, paired = {}, {}
     for c in cells:
         for d in designs:
-            stats[(c.label, d)] = CellStats.from_samples(c.label, d, by_label[f"{c.label}|{d}"].samples)
+            got = by_label.get(f"{c.label}|{d}")
+            if got is not None and got.samples:
+                stats[(c.label, d)] = CellStats.from_samples(c.label, d, got.samples)
     for c in cells[1:]:
         for d in designs:
+            if (c.label, d) not in stats or (cells[0].label, d) not in stats:
+                continue
             paired[(c.label, d)] = PairedStats.from_samples(
                 stats[(cells[0].label, d)], stats[(c.label, d)],
                 by_label[f"{cells[0].label}|{d}"].samples, by_label[f"{c.label}|{d}"].samples)
@@ -125,7 +139,10 @@ def run(args) -> int:
     outdir.mkdir(parents=True, exist_ok=True)
     name = f"{args.study}"
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
-    if len(cells) == 2:
+    if args.study == "tumbling":
+        from ..studies.tumbling import plot_tumbling, tumbling_table
+        table = tumbling_table(designs, stats)
+    elif len(cells) == 2:
         table = comparison_table(designs, paired, cells[1].label)
     else:
         table = study_table(designs, cells, stats, paired)
@@ -147,9 +164,41 @@ def run(args) -> int:
                            "p_diff": p.p_diff, "t_rel_diff": p.t_rel_diff,
                            "within_half_width": p.within_half_width} for p in paired.values()]}
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
-    plot_study(designs, cells, stats, outdir / f"{name}.png", title)
+    if args.study == "tumbling":
+        plot_tumbling(designs, stats, outdir / f"{name}.png", title)
+    else:
+        plot_study(designs, cells, stats, outdir / f"{name}.png", title)
     print(md)
     return 0
+
+
+def _from_file(specs, n_samples: int, base_seed: int, path: Path,
+               extra_model: str | None = None) -> dict:
+    """The samples of each spec already in the results file (seeds of samples
+    0..n_samples-1, in index order), as MonteCarloResults by label."""
+    from dataclasses import replace as dc_replace
+
+    from ..montecarlo.keys import run_key
+    from ..montecarlo.results_file import ResultsFile
+    from ..montecarlo.seeds import sample_seed
+    from ..montecarlo.summary import MonteCarloResult
+
+    rf = ResultsFile(path)
+    known = rf.load() if path.exists() else {}
+    versions = [None] + sorted(rf.models) + ([extra_model] if extra_model else [])
+    out = {}
+    for spec in specs:
+        samples = []
+        for version in versions:
+            key = run_key(spec.design, spec.noise_model, spec.config, version)
+            got = [dc_replace(known[(key, sample_seed(base_seed, i))], index=i)
+                   for i in range(n_samples) if (key, sample_seed(base_seed, i)) in known]
+            if len(got) > len(samples):
+                samples = got
+        if samples:
+            out[spec.label] = MonteCarloResult.from_samples(
+                spec.design, samples, base_seed, key, spec.config, label=spec.label)
+    return out
 
 
 def _compare(args, designs) -> int:

@@ -24,17 +24,23 @@ def model_version() -> str:
     a changed model are never reused.  Computed once per process."""
     from .. import core as core_pkg
 
+    return model_version_of(Path(core_pkg.__file__).parent)
+
+
+def model_version_of(core: Path) -> str:
+    """The model version of a copy of tethernet_ros/core (e.g. of an earlier commit)."""
     h = hashlib.sha256()
-    core = Path(core_pkg.__file__).parent
-    for p in sorted(core.rglob("*.py")):
+    for p in sorted(Path(core).rglob("*.py")):
         h.update(p.relative_to(core).as_posix().encode())
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
 
 
-def run_key(design: Design, noise_model: NoiseModel, config: SimConfig) -> str:
-    """Identity of the episodes a (design, noise model, config) produces for a seed."""
+def run_key(design: Design, noise_model: NoiseModel, config: SimConfig,
+            model: str | None = None) -> str:
+    """Identity of the episodes a (design, noise model, config) produces for a seed, under
+    this process's model version (or ``model``, one recorded in a results file)."""
     ident = {"design": design.to_dict(), "noise": asdict(noise_model), "config": config.to_dict(),
-             "seed_map": f"b*{SEED_STRIDE}+i", "model": model_version()}
+             "seed_map": f"b*{SEED_STRIDE}+i", "model": model or model_version()}
     blob = json.dumps(ident, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]

@@ -34,6 +34,8 @@ class ResultsFile:
         self.skipped_lines = 0
         #: machine_id -> facts of the machines named in the file (filled by records())
         self.machines: dict[str, dict] = {}
+        #: model versions (``keys.model_version``) that wrote to the file
+        self.models: set[str] = set()
         self._machine_written = False
 
     def records(self):
@@ -51,6 +53,8 @@ class ResultsFile:
                     rec = json.loads(line)
                     if "machine" in rec and "seed" not in rec:
                         self.machines[str(rec["machine_id"])] = dict(rec["machine"])
+                        if rec.get("model"):
+                            self.models.add(str(rec["model"]))
                         continue
                     r = SampleResult.from_record(rec)
                 except (ValueError, TypeError, KeyError):
@@ -97,6 +101,8 @@ class ResultsFile:
 
     def append(self, result: SampleResult, extra: dict | None = None) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        from .keys import model_version
+
         facts = machine.machine_facts()
         mid = machine.machine_id(facts)
         lines = []
@@ -104,9 +110,10 @@ class ResultsFile:
             if self.path.exists():
                 for _ in self.records():
                     pass
-            if mid not in self.machines:
-                lines.append({"machine_id": mid, "machine": facts})
+            if mid not in self.machines or model_version() not in self.models:
+                lines.append({"machine_id": mid, "machine": facts, "model": model_version()})
                 self.machines[mid] = facts
+                self.models.add(model_version())
             self._machine_written = True
         rec = result.to_record()
         if extra:

@@ -29,9 +29,12 @@ def study_table(designs: list[str], cells: list, stats: dict, paired: dict) -> s
     for k, cell in enumerate(cells):
         row = []
         for d in designs:
-            c = stats[(cell.label, d)]
+            c = stats.get((cell.label, d))
+            if c is None:
+                row.append("-")
+                continue
             txt = cell_text(c)
-            if k > 0:
+            if k > 0 and (cell.label, d) in paired:
                 ps: PairedStats = paired[(cell.label, d)]
                 mark = "within" if ps.within_half_width else "outside"
                 txt += (f"<br>{100 * ps.p_diff:+.1f} pts ({mark} ±{100 * min(ps.a.half_width, ps.b.half_width):.1f}), "
@@ -75,10 +78,11 @@ def plot_study(designs: list[str], cells: list, stats: dict, path: str | Path, t
     cmap = plt.get_cmap("tab20")
     x = np.arange(len(designs))
     for k, cell in enumerate(cells):
-        p = np.array([stats[(cell.label, d)].p for d in designs])
-        lo = np.array([stats[(cell.label, d)].lo for d in designs])
-        hi = np.array([stats[(cell.label, d)].hi for d in designs])
-        t = np.array([stats[(cell.label, d)].mean_t for d in designs])
+        got = [stats.get((cell.label, d)) for d in designs]   # None: no samples yet
+        p = np.array([c.p if c else np.nan for c in got])
+        lo = np.array([c.lo if c else np.nan for c in got])
+        hi = np.array([c.hi if c else np.nan for c in got])
+        t = np.array([c.mean_t if c else np.nan for c in got])
         xs = x - 0.4 + width * (k + 0.5)
         axes[0].bar(xs, 100 * p, width, yerr=[100 * (p - lo), 100 * (hi - p)], capsize=2,
                     color=cmap(k % 20), label=cell.label)
