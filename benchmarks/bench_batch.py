@@ -26,8 +26,10 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def simd_share(lanes: int) -> str:
-    """Packed against scalar float64 arithmetic in a fresh (uncached) compilation of
-    advance_implicit, called on a batch of ``lanes`` lanes."""
+    """Packed against scalar float64 arithmetic in fresh (uncached) compilations of
+    advance_implicit on a batch of ``lanes`` lanes, with LLVM's loop vectoriser on (numba's
+    default) and off (the project's setting, core/__init__.py)."""
+    import numba
     from numba import njit
 
     from tethernet_ros.core import kernel as kn
@@ -38,16 +40,24 @@ def simd_share(lanes: int) -> str:
     data = kn.empty_like(d1, lanes)
     for lane in range(lanes):
         kn.copy_lane(data, lane, d1, 0)
-    fresh = njit(nogil=True, error_model="numpy")(kn.advance_implicit.py_func)
-    fresh(model, data, kn.new_scratch(model, lanes), 1)
-    asm = "\n".join(fresh.inspect_asm().values())
-    ops = collections.Counter(re.findall(r"\bv(add|sub|mul|div|min|max|sqrt)([ps])d\b", asm))
-    packed = sum(n for (op, kind), n in ops.items() if kind == "p")
-    scalar = sum(n for (op, kind), n in ops.items() if kind == "s")
-    regs = "zmm" if "zmm" in asm else ("ymm" if "ymm" in asm else "xmm")
-    return (f"advance_implicit machine code: {packed} packed and {scalar} scalar float64 "
-            f"arithmetic instructions (widest registers: {regs}); packed code is emitted for "
-            "the lane loops, behind run-time alias checks")
+    scratch = kn.new_scratch(model, lanes)
+    words = []
+    setting = numba.config.LOOP_VECTORIZE
+    try:
+        for vec in (True, False):
+            numba.config.LOOP_VECTORIZE = vec
+            fresh = njit(nogil=True, error_model="numpy")(kn.advance_implicit.py_func)
+            fresh(model, data, scratch, 1)
+            asm = "\n".join(fresh.inspect_asm().values())
+            ops = collections.Counter(re.findall(r"\bv(add|sub|mul|div|min|max|sqrt)([ps])d\b",
+                                                 asm))
+            packed = sum(n for (op, kind), n in ops.items() if kind == "p")
+            scalar = sum(n for (op, kind), n in ops.items() if kind == "s")
+            words.append(f"loop vectoriser {'on' if vec else 'off'}: {packed} packed / {scalar} "
+                         "scalar float64 arithmetic instructions")
+    finally:
+        numba.config.LOOP_VECTORIZE = setting
+    return "advance_implicit machine code, " + "; ".join(words)
 
 
 def main(argv=None) -> int:
