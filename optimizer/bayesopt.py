@@ -90,6 +90,12 @@ class ConstrainedBayesOpt:
         n_polish: candidates polished with L-BFGS-B.
         n_restarts_gp: extra random restarts of each GP hyperparameter fit.
         max_eiplus_tries: EI+ re-maximisations at most.
+        shared_luck: per coupled constraint, the variance of an error that all its
+            observations share (e.g. ``C_P (1 - C_P) / N`` for P*_s estimated on the same N
+            samples for every design, common random numbers); the constraint GP then
+            takes it into account (:class:`~optimizer.gp.GPModel`, ``shared_var``), and
+            the evidence passed to :meth:`ranked_feasible` (fresh samples) does not share
+            it.  None: independent observations.
     """
 
     def __init__(self, bounds: Sequence[Sequence[float]], constraints: Mapping[str, float],
@@ -97,7 +103,8 @@ class ConstrainedBayesOpt:
                  n_initial: int = 50, n_iterations: int = 200, active_set: int = 200,
                  exploration_ratio: float = 0.5, seed: int = 0,
                  n_candidates: int | None = None, n_polish: int = 5,
-                 n_restarts_gp: int = 2, max_eiplus_tries: int = 5):
+                 n_restarts_gp: int = 2, max_eiplus_tries: int = 5,
+                 shared_luck: Mapping[str, float] | None = None):
         b = np.asarray(bounds, dtype=float)
         if b.ndim != 2 or b.shape[1] != 2 or b.shape[0] < 1:
             raise ValueError(f"bounds must be a sequence of (lower, upper) pairs, got {bounds!r}")
@@ -119,6 +126,8 @@ class ConstrainedBayesOpt:
         self.n_polish = int(n_polish)
         self.n_restarts_gp = int(n_restarts_gp)
         self.max_eiplus_tries = int(max_eiplus_tries)
+        self.shared_luck = ({str(k): float(v) for k, v in shared_luck.items()}
+                            if shared_luck else None)
         self.history: list[Observation] = []
         self.last_ask_info: dict = {}
         self._rng = np.random.default_rng(self.seed)
@@ -186,11 +195,14 @@ class ConstrainedBayesOpt:
         obj = (GPModel(U, [o.objective for o in H], random_state=rs, n_restarts=self.n_restarts_gp)
                if objective else None)
         cons = {}
+        shared_mask = [1.0] * len(idx) + [0.0] * len(evidence)   # evidence: fresh samples
         for j, name in enumerate(self.constraints):
             var = np.array([o.constraint_variances.get(name, 0.0) for o in H])
+            shared = (self.shared_luck or {}).get(name, 0.0)
             cons[name] = GPModel(U, [o.constraints[name] for o in H], var if np.any(var > 0) else None,
                              random_state=(rs + 104729 * (j + 1)) % (2**31 - 1),
-                             n_restarts=self.n_restarts_gp)
+                             n_restarts=self.n_restarts_gp, shared_var=shared,
+                             shared_mask=shared_mask if shared else None)
         return U, H, obj, cons
 
     # ------------------------------------------------------------------ ask / tell
@@ -364,12 +376,15 @@ class ConstrainedBayesOpt:
 
     # ------------------------------------------------------------------ state
     def _settings(self) -> dict:
-        return {
+        out = {
             "n_initial": self.n_initial, "n_iterations": self.n_iterations,
             "active_set": self.active_set, "exploration_ratio": self.exploration_ratio,
             "seed": self.seed, "n_candidates": self.n_candidates, "n_polish": self.n_polish,
             "n_restarts_gp": self.n_restarts_gp, "max_eiplus_tries": self.max_eiplus_tries,
         }
+        if self.shared_luck:            # absent when off: checkpoints from before it match
+            out["shared_luck"] = dict(self.shared_luck)
+        return out
 
     def state_dict(self) -> dict:
         """JSON-serialisable complete state (settings, RNG state, seed design, history).
@@ -411,6 +426,7 @@ class ConstrainedBayesOpt:
                   "n_restarts_gp", "max_eiplus_tries"):
             setattr(self, k, int(settings[k]))
         self.exploration_ratio = float(settings["exploration_ratio"])
+        self.shared_luck = settings.get("shared_luck")
         self._rng = np.random.default_rng()
         self._rng.bit_generator.state = state["rng_state"]
         self._initial_design = np.asarray(state["initial_design"], dtype=float)

@@ -7,6 +7,12 @@ every design sees the same noise draws) and turns it into ``(objective,
 variance as known noise (:func:`~optimizer.observation.binomial_observation` with the n
 samples the estimate rests on).
 
+With ``fresh=True`` every evaluation gets samples of its own instead: evaluation ``j``
+(1-based, counted from ``first_evaluation``) draws samples of base seed
+:func:`~optimizer.settings.fresh_base_seed` (``base_seed``, j), so that its P*_s is
+independent of every other design's (the constraint GP takes the observations as
+independent; with common random numbers near-copies share their luck).
+
 With ``sequential=True`` the samples are drawn in index order and a design's sampling stops
 as soon as its feasibility at ``samples`` is decided (:mod:`optimizer.sequential`); the
 observation then rests on the samples drawn up to the decision, ``info["samples"]`` of
@@ -24,6 +30,7 @@ from .cases import P_SUCCESS, Case, get_case
 from .jsonio import json_clean
 from .observation import binomial_observation
 from .problem import DesignProblem
+from .settings import fresh_base_seed
 
 __all__ = ["DesignEvaluator"]
 
@@ -34,12 +41,14 @@ class DesignEvaluator:
     Per-sample results go to ``results_path`` (samples already there for the same design
     are reused, so a design that was in flight when a run was killed is finished, not
     restarted).  ``calls`` counts evaluations and ``last_result`` holds the latest
-    estimate.  ``progress(done, total)`` is called per finished sample.
+    estimate.  ``progress(done, total)`` is called per finished sample.  ``fresh``,
+    ``first_evaluation``: fresh samples per evaluation (module docstring);
+    ``next_evaluation`` is the number of the next call's evaluation.
     """
 
     def __init__(self, case: Case | str, problem: DesignProblem, samples: int, base_seed: int,
                  results_path=None, progress: Callable[[int, int], None] | None = None,
-                 sequential: bool = False):
+                 sequential: bool = False, fresh: bool = False, first_evaluation: int = 1):
         self.case = get_case(case)
         self.problem = problem
         self.samples = int(samples)
@@ -47,6 +56,8 @@ class DesignEvaluator:
         self.results_path = results_path
         self.progress = progress
         self.sequential = bool(sequential)
+        self.fresh = bool(fresh)
+        self.next_evaluation = int(first_evaluation)
         self.calls = 0
         self.last_result = None
         self.cheap_constraint = self.case.cheap_constraint(problem.mass)
@@ -65,7 +76,13 @@ class DesignEvaluator:
                              f"m_a <= {self.case.mass_limit:g} kg and must not be simulated")
         t0 = time.perf_counter()
         rule = self.case.sequential_rule(self.samples) if self.sequential else None
-        r = self.estimate(x, stop=rule)
+        if self.fresh:
+            base = fresh_base_seed(self.base_seed, self.next_evaluation)
+            r = self.problem.evaluate(x, self.samples, base, stop=rule,
+                                      results_path=self.results_path, progress=self.progress)
+        else:
+            r = self.estimate(x, stop=rule)
+        self.next_evaluation += 1
         self.calls += 1
         self.last_result = r
         value, var = binomial_observation(r.successes, r.n_samples)
@@ -81,4 +98,6 @@ class DesignEvaluator:
             "reused_samples": r.reused, "wall_time": time.perf_counter() - t0,
             "samples_planned": self.samples,
         }
+        if self.fresh:
+            info["base_seed"] = r.base_seed
         return objective, {P_SUCCESS: value}, {P_SUCCESS: var}, json_clean(info)

@@ -3,10 +3,12 @@ samples (:func:`choose_design`, :class:`Validator`), build the table's rows and 
 summary, write the results table and the convergence figure (:func:`finish_run`)."""
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from .cases import P_SUCCESS, VALIDATION_RULES, validation_rule_text
 from .report import plot_convergence, write_results
+from .racing import RaceResult, race
 from .selection import rank_candidates, validation_evidence
 from .sequential import SequentialRule
 
@@ -29,7 +31,8 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit) ->
         emit: ``emit(event)``, the run's progress events.
     """
     validator = Validator(case, problem, settings, paths["validation"], emit)
-    choice = choose_design(case, opt, stopped, settings, validator)
+    choice = choose_design(case, opt, stopped, settings, validator,
+                           _racer(case, opt, problem, settings, paths["racing"], emit))
     rows = _design_rows(case, opt, problem, choice, validator)
     if settings.compare_reference and not stopped:
         rows += _reference_rows(case, problem, evaluator, validator, emit)
@@ -38,6 +41,23 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit) ->
     plot_convergence(paths["convergence"], opt.history, case, choice.best,
                      choice.validation["p_success"] if choice.validation else None)
     return summary
+
+
+def _racer(case, opt, problem, settings, results_path, emit):
+    """``racer(candidates)``: :func:`optimizer.racing.race` on the problem, its samples of
+    base seed ``settings.racing_seed`` appended to ``results_path``."""
+    def sample(obs, n):
+        label = f"racing evaluation {_index(opt.history, obs)}"
+
+        def prog(done, total):
+            emit({"stage": "validation", "label": label, "done": done, "total": total})
+        return problem.evaluate(obs.x, n, settings.racing_seed, results_path=results_path,
+                                label=label, progress=prog)
+
+    def racer(candidates):
+        return race(candidates, sample, case.p_threshold, settings.racing_round,
+                    settings.racing_budget, max_samples=settings.validation_samples)
+    return racer
 
 
 class Validator:
@@ -78,31 +98,51 @@ class Validator:
 class Choice:
     """The run's chosen design: ``best`` (an observation of the history, or None),
     ``result`` (its validation, or None), ``tried`` (every (observation, validation)
-    pair, in the order validated), ``rule`` (the words that say how it was chosen) and
-    ``validation`` (``result`` as a dict)."""
+    pair, in the order validated), ``rule`` (the words that say how it was chosen),
+    ``validation`` (``result`` as a dict) and ``race`` (the race before the validations,
+    or None)."""
 
     best: object = None
     result: object = None
     tried: list = field(default_factory=list)
     rule: str = ""
     validation: dict | None = None
+    race: RaceResult | None = None
 
 
-def choose_design(case, opt, stopped, settings, validator: Validator) -> Choice:
-    """Rank the designs (:func:`optimizer.selection.rank_candidates`) and validate them in
-    turn until one meets C_P, at most ``settings.validation_candidates`` of them, ranked
-    again after each failure with the failed validations as evidence (module docstring of
-    :mod:`optimizer.selection`); the first that meets C_P is the run's result, else the
-    first validated.  Nothing is validated when the run was stopped or has no validation
-    samples."""
+def choose_design(case, opt, stopped, settings, validator: Validator,
+                  racer: Callable[[list], RaceResult] | None = None) -> Choice:
+    """Rank the designs (:func:`optimizer.selection.rank_candidates`), race the first
+    ``settings.racing_candidates`` of them with ``racer`` (:mod:`optimizer.racing`; the
+    ranking then redone with their racing samples, the dropped ones removed, the winner
+    first) and validate them in turn until one meets C_P, at most
+    ``settings.validation_candidates`` of them, ranked again after each failure with the
+    failed validations as evidence too (module docstring of :mod:`optimizer.selection`);
+    the first that meets C_P is the run's result, else the first validated.  Nothing is
+    raced or validated when the run was stopped or has no validation samples."""
     ranked, rule = rank_candidates(opt, settings.min_probability)
     choice = Choice(best=ranked[0] if ranked else None, rule=rule)
     if choice.best is None:
         return choice
+    evidence, reorder = [], list
+    if settings.racing_candidates and validator.samples and not stopped and racer is not None:
+        k = settings.racing_candidates
+        choice.race = racer(ranked[:k])
+        evidence, reorder = choice.race.evidence(), choice.race.order
+        again, _ = rank_candidates(opt, settings.min_probability, evidence)
+        ranked = reorder(again) or reorder(ranked) or ranked
+        choice.best = ranked[0]
+        r = choice.race
+        choice.rule += (f"; the first {min(k, len(r.entries))} raced on fresh samples "
+                        f"({r.episodes} samples in {r.rounds} rounds, "
+                        f"{sum(e.status == 'dropped' for e in r.entries)} dropped, "
+                        + (f"evaluation {_index(opt.history, r.winner.candidate)} cleared C_P"
+                           if r.winner else f"none cleared C_P: {r.stopped_by}") + ")")
     n_candidates = settings.validation_candidates
     if validator.samples and not stopped:
         choice.tried = _validate_in_turn(opt, ranked, settings.min_probability, validator,
-                                         case, n_candidates, validator.rule)
+                                         case, n_candidates, validator.rule, evidence,
+                                         reorder)
         # the first design that met C_P, if any (the last one tried), else the first
         last = choice.tried[-1]
         choice.best, choice.result = last if validator.meets(last[1]) else choice.tried[0]
@@ -173,7 +213,14 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
         "validation_rule": settings.validation_rule,
         "validation_samples": settings.validation_samples,
         "validation_stop": bool(settings.validation_stop),
+        "fresh_samples": bool(settings.fresh_samples),
+        "racing": (choice.race.to_dict(lambda o: _index(opt.history, o))
+                   if choice.race is not None else None),
     }
+    summary["episodes_racing"] = choice.race.episodes if choice.race is not None else 0
+    summary["episodes_validation"] = sum(int(r.n_samples) for _, r in choice.tried)
+    summary["episodes_total"] = (summary["episodes"] + summary["episodes_racing"]
+                                 + summary["episodes_validation"])
     if best is not None:
         summary.update({
             "best_design": problem.design_dict(best.x), "best_vector": [float(v) for v in best.x],
@@ -187,13 +234,14 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
 
 
 def _validate_in_turn(opt, ranked, min_probability, validate, case, n_candidates: int,
-                      rule: str) -> list:
+                      rule: str, evidence=(), reorder=list) -> list:
     """Validate the ranked designs in turn until one meets C_P (by ``rule``), at most
-    ``n_candidates``; after each failure its validation joins the constraint GP's data and
-    the designs are ranked again.  Returns the (observation, validation result) pairs in
-    the order validated."""
+    ``n_candidates``; after each failure its validation joins the constraint GP's data
+    (beside ``evidence``, e.g. the racing samples) and the designs are ranked again (then
+    put in order by ``reorder``, e.g. :meth:`RaceResult.order`).  Returns the
+    (observation, validation result) pairs in the order validated."""
     tried = []
-    evidence = []                            # the failed validations, for the GP
+    evidence = list(evidence)                # racing samples and failed validations
     order = ranked
     while len(tried) < n_candidates:
         cand = next((o for o in order if all(o is not t for t, _ in tried)), None)
@@ -205,7 +253,7 @@ def _validate_in_turn(opt, ranked, min_probability, validate, case, n_candidates
             break
         evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
         if len(tried) < n_candidates:
-            order, _ = rank_candidates(opt, min_probability, evidence)
+            order = reorder(rank_candidates(opt, min_probability, evidence)[0])
     return tried
 
 

@@ -14,7 +14,7 @@ import math
 import warnings
 
 import numpy as np
-from scipy.linalg import solve_triangular
+from scipy.linalg import cho_solve, cholesky, solve_triangular
 from scipy.spatial.distance import cdist
 from skopt.learning import GaussianProcessRegressor
 from skopt.learning.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
@@ -28,9 +28,17 @@ class GPModel:
     ``predict(U)`` returns the latent posterior mean and standard deviation in
     standardised units at unit-cube points ``U`` (shape ``(m, d)``); the white noise is
     excluded. ``noise_sd`` is the fitted white-noise standard deviation (standardised).
+
+    ``shared_var`` (output units squared) and ``shared_mask`` (0/1 per observation): an
+    error shared by the masked observations, e.g. the luck of the common random numbers
+    they were all estimated on (``o`` in ``y_i = f(x_i) + mask_i o + e_i``, ``o ~ N(0,
+    shared_var)``).  The hyperparameters are fitted as without it; the posterior of the
+    latent ``f`` then takes it into account, so that many observations on the same samples
+    cannot make it surer than those samples allow.
     """
 
-    def __init__(self, U, y, var=None, *, random_state: int, n_restarts: int, kernel=None):
+    def __init__(self, U, y, var=None, *, random_state: int, n_restarts: int, kernel=None,
+                 shared_var: float = 0.0, shared_mask=None):
         y = np.asarray(y, dtype=float)
         self.y_mean = float(np.mean(y))
         sd = float(np.std(y))
@@ -72,6 +80,10 @@ class GPModel:
         self.noise_sd = math.sqrt(float(gp.noise_ or 0.0))
         self._alpha = alpha
         self._random_state = random_state
+        self._shared = None
+        if shared_var > 0 and shared_mask is not None and np.any(shared_mask):
+            self._shared = (float(shared_var) / self.y_std**2,
+                            np.asarray(shared_mask, dtype=float))
 
     def _cache(self):
         gp = self.gp
@@ -80,6 +92,12 @@ class GPModel:
         self._ls = np.broadcast_to(np.asarray(k.k1.k2.length_scale, dtype=float),
                                    (gp.X_train_.shape[1],)).copy()
         self._Xs = gp.X_train_ / self._ls
+        self._L, self._weights = gp.L_, gp.alpha_
+        if self._shared is not None:
+            v, m = self._shared
+            K = gp.L_ @ gp.L_.T + v * np.outer(m, m)
+            self._L = cholesky(K, lower=True, check_finite=False)
+            self._weights = cho_solve((self._L, True), gp.y_train_, check_finite=False)
 
     def predict(self, U, grad: bool = False):
         """Latent posterior mean and std (standardised units) at unit-cube points ``U``
@@ -89,7 +107,7 @@ class GPModel:
         if not hasattr(self, "_c"):
             self._cache()
         U = np.atleast_2d(np.asarray(U, dtype=float))
-        gp, c = self.gp, self._c
+        c = self._c
         if grad:
             D = U[:, None, :] / self._ls - self._Xs[None, :, :]  # (m, n, d) scaled differences
             r = np.sqrt(np.einsum("mnd,mnd->mn", D, D))
@@ -98,16 +116,16 @@ class GPModel:
         s5r = math.sqrt(5.0) * r
         e = np.exp(-s5r)
         K = c * (1.0 + s5r + (5.0 / 3.0) * r**2) * e
-        mu = K @ gp.alpha_
-        v = solve_triangular(gp.L_, K.T, lower=True, check_finite=False)  # (n, m)
+        mu = K @ self._weights
+        v = solve_triangular(self._L, K.T, lower=True, check_finite=False)  # (n, m)
         var = np.maximum(c - np.einsum("nm,nm->m", v, v), 0.0)
         sd = np.sqrt(var)
         if not grad:
             return mu, sd
         # dK/du = -5c/3 (1 + sqrt5 r) exp(-sqrt5 r) (u - x) / l^2
         dK = (-(5.0 / 3.0) * c * (1.0 + s5r) * e)[:, :, None] * (D / self._ls)  # (m, n, d)
-        dmu = np.einsum("mnd,n->md", dK, gp.alpha_)
-        w = solve_triangular(gp.L_.T, v, lower=False, check_finite=False)  # K^-1 k, (n, m)
+        dmu = np.einsum("mnd,n->md", dK, self._weights)
+        w = solve_triangular(self._L.T, v, lower=False, check_finite=False)  # K^-1 k, (n, m)
         dvar = -2.0 * np.einsum("nm,mnd->md", w, dK)
         with np.errstate(divide="ignore", invalid="ignore"):
             dsd = np.where(sd[:, None] > 1e-12, dvar / (2.0 * sd[:, None]), 0.0)
@@ -123,14 +141,24 @@ class GPModel:
         ) + WhiteKernel(max(self.noise_sd**2, 1e-12), "fixed")
         new = GPModel.__new__(GPModel)
         U, y, var = self._fit_args
-        gp = GaussianProcessRegressor(
-            kernel=kernel, alpha=self._alpha, optimizer=None, normalize_y=False,
-            noise="gaussian", random_state=self._random_state,
-        )
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            gp.fit(U, (y - self.y_mean) / self.y_std)
+        last_exc = None
+        # the same jitter ladder as the fit: a large factor on a nearly constant kernel
+        # (e.g. an exact linear objective) can leave the matrix numerically singular
+        for jitter in (0.0, 1e-8, 1e-6, 1e-4):
+            gp = GaussianProcessRegressor(
+                kernel=kernel, alpha=self._alpha + jitter, optimizer=None, normalize_y=False,
+                noise="gaussian", random_state=self._random_state,
+            )
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    gp.fit(U, (y - self.y_mean) / self.y_std)
+                break
+            except (np.linalg.LinAlgError, ValueError) as exc:
+                last_exc = exc
+        else:
+            raise RuntimeError(f"GP refit failed: {last_exc}") from last_exc
         new.gp, new.y_mean, new.y_std = gp, self.y_mean, self.y_std
         new.noise_sd, new._alpha, new._random_state = self.noise_sd, self._alpha, self._random_state
-        new._fit_args = self._fit_args
+        new._fit_args, new._shared = self._fit_args, self._shared
         return new

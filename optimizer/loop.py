@@ -79,9 +79,10 @@ def minimize(fun: Callable, bounds, constraints: Mapping[str, float], *,
                 if saved[key] != fresh[key]:
                     raise ValueError(f"checkpoint {key} {saved[key]!r} differ from the requested "
                                      f"{fresh[key]!r}")
-            for key, val in fresh["settings"].items():
-                if key != "n_iterations" and saved["settings"][key] != val:
-                    raise ValueError(f"checkpoint setting {key}={saved['settings'][key]!r} differs "
+            for key in sorted(set(fresh["settings"]) | set(saved["settings"])):
+                val = fresh["settings"].get(key)
+                if key != "n_iterations" and saved["settings"].get(key) != val:
+                    raise ValueError(f"checkpoint setting {key}={saved['settings'].get(key)!r} differs "
                                      f"from the requested {val!r}")
             opt = ConstrainedBayesOpt.from_state_dict(saved, cheap_constraint,
                                                       n_iterations=n_iterations)

@@ -14,8 +14,8 @@ from .jsonio import atomic_write_text
 
 __all__ = ["write_history", "write_results", "plot_convergence", "results_markdown"]
 
-_CSV_FIELDS = ["case", "design", "evaluation", "m_c", "L_n", "r_n", "d_L", "V_x", "V_y", "V_z",
-               "d_c", "m_a_kg", "mean_T_s", "p_success_opt", "successes_opt", "samples_opt",
+#: the results CSV's columns after the design variables
+_CSV_FIELDS = ["m_a_kg", "mean_T_s", "p_success_opt", "successes_opt", "samples_opt",
                "opt_wilson_low", "opt_wilson_high", "p_success_validated", "successes_validated",
                "samples_validated", "validated_wilson_low", "validated_wilson_high",
                "validated_cp_low", "validated_cp_high", "validated_mean_T_s", "selection_rule"]
@@ -67,12 +67,11 @@ def write_results(csv_path: str | Path, md_path: str | Path, summary: dict) -> N
     rows = summary["table"]
     with open(csv_path, "w", newline="", encoding="utf-8") as fh:
         w = csv.writer(fh)
-        w.writerow(_CSV_FIELDS)
+        w.writerow(["case", "design", "evaluation", *summary["variables"], *_CSV_FIELDS])
         for r in rows:
             x, v = r["x"], r["validation"] or {}
-            w.writerow([summary["case"], r["design"], _num(r["evaluation"]), _num(x["m_c"]),
-                        _num(x["L_n"]), _num(x["r_n"]), _num(x["d_L"]), *map(_num, x["V_e"]),
-                        _num(x["d_c"]), _num(r["mass"]), _num(r["mean_completion_time"]),
+            w.writerow([summary["case"], r["design"], _num(r["evaluation"]),
+                        *map(_num, _flat(x)), _num(r["mass"]), _num(r["mean_completion_time"]),
                         _num(r["p_success"]), _num(r["successes"]), _num(r["samples"]),
                         _num(r["ci"][0]), _num(r["ci"][1]), _num(v.get("p_success")),
                         _num(v.get("successes")), _num(v.get("samples")),
@@ -126,14 +125,8 @@ def results_markdown(summary: dict) -> str:
             f"source's {pub['design']} (Table 4)", _f(pub["mass"], 2),
             _f(pub["mean_completion_time"], 1), "n/a" if p_opt is None else _f(p_opt, 2),
             _f(pub["p_success_validated"]), "", ""]) + " |")
-    out += ["", "Design variables:", "",
-            "| design | m_c (kg) | L_n (m) | r_n (m) | d_L (m) | V_e (m/s) | d_c (m) |",
-            "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        x = r["x"]
-        ve = ", ".join(f"{v:.2f}" for v in x["V_e"])
-        out.append(f"| {r['design']} | {x['m_c']:.2f} | {x['L_n']:.2f} | {x['r_n']:.4f} | "
-                   f"{x['d_L']:.2f} | [{ve}] | {x['d_c']:.2f} |")
+    out += ["", "Design variables:", ""] + _variables_table(rows, summary["variables"])
+    out += _racing_lines(summary)
     out += ["", f"Chosen by: {summary['selection_rule']}."]
     if rows[0]["evaluation"]:
         out.append(f"Best design = evaluation {rows[0]['evaluation']}.")
@@ -145,6 +138,53 @@ def results_markdown(summary: dict) -> str:
                    f"{validation_rule_text(summary.get('validation_rule'))}.")
     out.append("mean T is over all samples (closing never triggered: T = horizon).")
     return "\n".join(out) + "\n"
+
+
+def _flat(design: dict) -> list:
+    """A design dict's values in order, lists spread out (the design vector)."""
+    out = []
+    for v in design.values():
+        out += list(v) if isinstance(v, (list, tuple)) else [v]
+    return out
+
+
+def _variables_table(rows: list[dict], names: Sequence[str]) -> list[str]:
+    """The rows' design variables: the tether-net's with their units, any other
+    problem's by name."""
+    if rows and "V_e" in rows[0]["x"]:
+        out = ["| design | m_c (kg) | L_n (m) | r_n (m) | d_L (m) | V_e (m/s) | d_c (m) |",
+               "|---|---|---|---|---|---|---|"]
+        for r in rows:
+            x = r["x"]
+            ve = ", ".join(f"{v:.2f}" for v in x["V_e"])
+            out.append(f"| {r['design']} | {x['m_c']:.2f} | {x['L_n']:.2f} | {x['r_n']:.4f} | "
+                       f"{x['d_L']:.2f} | [{ve}] | {x['d_c']:.2f} |")
+        return out
+    out = ["| design | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for r in rows:
+        out.append(f"| {r['design']} | " + " | ".join(f"{v:.6g}" for v in _flat(r["x"])) + " |")
+    return out
+
+
+def _racing_lines(summary: dict) -> list[str]:
+    """The race before the validations (optimizer/racing.py) as a table, and the
+    episodes of the whole run; nothing for a run that did not race."""
+    race = summary.get("racing")
+    if not race:
+        return []
+    out = ["", f"Racing on fresh samples before validation: {race['episodes']} samples in "
+               f"{race['rounds']} rounds ({race['stopped_by']}); episodes in all: "
+               f"{summary.get('episodes')} optimisation + {summary.get('episodes_racing')} "
+               f"racing + {summary.get('episodes_validation')} validation = "
+               f"{summary.get('episodes_total')}.", "",
+           "| evaluation | objective | racing P*_s [Wilson 95%] | samples | status |",
+           "|---|---|---|---|---|"]
+    for e in race["entries"]:
+        p = e["successes"] / e["samples"] if e["samples"] else None
+        out.append(f"| {e['evaluation']} | {_fmt(e['objective'])} | {_f(p)} "
+                   f"[{_f(e['wilson'][0])}, {_f(e['wilson'][1])}] | {e['samples']} | "
+                   f"{e['status']} |")
+    return out
 
 
 def _samples_text(summary: dict) -> str:

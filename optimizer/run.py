@@ -8,6 +8,7 @@ and keeps everything in one run directory::
     checkpoint.json   the optimiser's state, rewritten atomically after every evaluation
     samples.jsonl     every Monte Carlo sample of the optimisation (appended as it finishes)
     validation.jsonl  every validation sample
+    racing.jsonl      every racing sample (optimizer/racing.py)
     history.csv       one row per evaluated design
     results.csv/.md   the results table (docs/model.md §12, docs/optimizer.md §7)
     convergence.png   objective, best feasible so far, P*_s and m_a per evaluation
@@ -64,7 +65,7 @@ __all__ = ["run_optimization", "RunError", "RunSettings", "default_run_dir",
 
 RUN_FILES = {
     "settings": "run.json", "checkpoint": "checkpoint.json", "samples": "samples.jsonl",
-    "validation": "validation.jsonl", "history": "history.csv", "results_csv": "results.csv",
+    "validation": "validation.jsonl", "racing": "racing.jsonl", "history": "history.csv", "results_csv": "results.csv",
     "results_md": "results.md", "convergence": "convergence.png", "summary": "summary.json",
 }
 
@@ -112,14 +113,16 @@ def run_optimization(case: str | Case, problem: DesignProblem,
     tracker = _Progress(run, progress, callback)
     evaluator = DesignEvaluator(case, problem, run.settings.samples, run.settings.sample_seed,
                                 results_path=run.paths["samples"], progress=tracker.on_sample,
-                                sequential=run.settings.sequential)
+                                sequential=run.settings.sequential,
+                                fresh=run.settings.fresh_samples,
+                                first_evaluation=run.previous + 1)
     tracker.start(problem.describe())
     res = minimize(evaluator, problem.bounds, case.constraints,
                    cheap_constraint=evaluator.cheap_constraint,
                    n_initial=run.settings.seed_points, n_iterations=run.settings.iterations,
                    checkpoint_path=run.paths["checkpoint"], resume=resume,
                    callback=tracker.on_evaluation, seed=run.settings.seed,
-                   **run.settings.optimizer_options)
+                   **run.settings.optimizer_options, **_constraint_model(case, run.settings))
     write_history(run.paths["history"], res.optimizer.history, problem.variable_names)
     summary = finish_run(case, res.optimizer, res.stopped_by_callback, run.paths, run.settings,
                          problem, evaluator, tracker.emit)
@@ -128,6 +131,16 @@ def run_optimization(case: str | Case, problem: DesignProblem,
     atomic_write_json(run.paths["summary"], summary)
     tracker.emit({"stage": "done", **summary})
     return json_clean(summary)
+
+
+def _constraint_model(case: Case, settings: RunSettings) -> dict:
+    """The optimiser's options for the constraint model: the luck shared by estimates on
+    common random numbers (``shared_luck``: variance C_P (1 - C_P) / N at the
+    threshold, the spread of the empirical success rate of N common samples there)."""
+    if settings.shared_luck and not settings.fresh_samples:
+        p = case.p_threshold
+        return {"shared_luck": {P_SUCCESS: p * (1.0 - p) / settings.samples}}
+    return {}
 
 
 def _settings_from(settings: RunSettings | None, fields: dict) -> RunSettings:
@@ -168,7 +181,7 @@ def open_run(case: Case, problem: DesignProblem, settings: RunSettings,
     paths = {k: run_dir / v for k, v in RUN_FILES.items()}
     recorded = (read_run_settings(paths["settings"])
                 if resume and paths["settings"].exists() else None)
-    settings = settings.resolved(recorded)
+    settings = settings.resolved(recorded, case)
     _check_validation_size(case, settings)
     record = json.loads(json.dumps(json_clean(settings.record(case.name, problem.settings()))))
     previous = _open_run_dir(run_dir, paths, record, resume)

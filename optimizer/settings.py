@@ -7,10 +7,11 @@ validation, selection); it checks every field when built and raises :class:`Sett
 settings in run.json (:meth:`RunSettings.record`); a resumed run must be asked for the same
 ones, except the :data:`MUTABLE` ones.
 
-The fields of :data:`NEW_RUN_DEFAULTS` (``validation_rule``, ``validation_stop``) take
-``None``, "as the run recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value
-in its run.json, or, if its run.json predates the setting, :data:`RECORDED_DEFAULTS` (what
-runs did before the setting existed).  :meth:`RunSettings.resolved` applies that rule.
+The fields of :data:`NEW_RUN_DEFAULTS` (``validation_rule``, ``validation_stop``,
+``racing_candidates``, ``fresh_samples``, ``shared_luck``) take ``None``, "as the run recorded it".  A new
+run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value in its run.json, or, if
+its run.json predates the setting, :data:`RECORDED_DEFAULTS` (what runs did before the
+setting existed).  :meth:`RunSettings.resolved` applies that rule.
 """
 from __future__ import annotations
 
@@ -25,24 +26,49 @@ from dataclasses import dataclass, field
 from .cases import VALIDATION_RULES
 
 __all__ = ["RunError", "SettingError", "RunSettings", "MUTABLE", "NEW_RUN_DEFAULTS",
-           "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION"]
+           "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION", "SEED_LIMIT", "fresh_base_seed"]
 
 RUN_FORMAT = "tethernet_ros.optimizer.run"
 RUN_VERSION = 1
 
-#: settings that may differ between a run and its resumption
+#: settings that may differ between a run and its resumption (they act after the
+#: optimisation: racing and validation)
 MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
-                     "validation_rule", "validation_stop", "compare_reference"})
-#: the value of a ``None`` ("as recorded") setting for a new run
-NEW_RUN_DEFAULTS = {"validation_rule": "wilson", "validation_stop": True}
+                     "validation_rule", "validation_stop", "compare_reference",
+                     "racing_candidates", "racing_round", "racing_budget", "racing_seed"})
+#: the value of a ``None`` ("as recorded") setting for a new run; a callable takes the
+#: :class:`~optimizer.cases.Case`
+NEW_RUN_DEFAULTS = {
+    "validation_rule": "wilson", "validation_stop": True, "racing_candidates": 5,
+    # fresh samples where the objective is exact (Case 1); common random numbers where
+    # they compare the objective (Case 2's mean T)
+    "fresh_samples": lambda case: not case.objective_from_samples,
+    "shared_luck": False,
+}
 #: the value of a setting that a run directory of an older version does not record
 RECORDED_DEFAULTS = {"sequential": False, "validation_rule": "estimate",
-                     "validation_stop": False}
+                     "validation_stop": False, "racing_candidates": 0,
+                     "fresh_samples": False, "shared_luck": False}
+#: seeds are below this: the base seeds of fresh samples lie above it
+#: (:func:`fresh_base_seed`)
+SEED_LIMIT = 1_000_000
 #: keys of ``optimizer_options`` that the run sets itself
-_RESERVED_OPTIONS = frozenset({"n_initial", "n_iterations", "seed", "cheap_constraint"})
-#: smallest allowed value of each integer setting
-_INT_MINIMUM = {"iterations": 0, "seed_points": 1, "samples": 1, "validation_samples": 0,
-                "seed": 0, "sample_seed": 0, "validation_seed": 0, "validation_candidates": 1}
+_RESERVED_OPTIONS = frozenset({"n_initial", "n_iterations", "seed", "cheap_constraint",
+                               "shared_luck"})
+#: allowed range of each integer setting (None: no upper end)
+_INT_RANGE = {"iterations": (0, None), "seed_points": (1, None), "samples": (1, None),
+              "validation_samples": (0, None), "seed": (0, None),
+              "sample_seed": (0, SEED_LIMIT - 1), "validation_seed": (0, SEED_LIMIT - 1),
+              "validation_candidates": (1, None), "racing_candidates": (0, None),
+              "racing_round": (1, None), "racing_budget": (0, None),
+              "racing_seed": (0, SEED_LIMIT - 1)}
+
+
+def fresh_base_seed(sample_seed: int, evaluation: int) -> int:
+    """Base seed of the samples of evaluation ``evaluation`` (1-based) when every design
+    gets fresh samples: ``(sample_seed + 1) * SEED_LIMIT + evaluation``, above every seed a
+    setting may take, so fresh samples never repeat the validation's or the racing's."""
+    return (int(sample_seed) + 1) * SEED_LIMIT + int(evaluation)
 
 
 class RunError(ValueError):
@@ -100,6 +126,22 @@ class RunSettings:
             None (plain observed-feasible rule).
         compare_reference: also evaluate and validate the case's reference design
             (docs/model.md §9) with the optimisation and the validation samples.
+        fresh_samples: every design gets samples of its own (base seed
+            :func:`fresh_base_seed`) instead of the same ``sample_seed`` samples (common
+            random numbers), so that the constraint model's observations are independent;
+            or None (module docstring: for a new run, fresh where the objective is exact).
+        shared_luck: with common random numbers, the constraint GP models the luck that
+            all designs share (an error of variance C_P (1 - C_P) / samples common to
+            every optimisation estimate, :class:`~optimizer.gp.GPModel`), instead of
+            taking the estimates as independent; ignored with ``fresh_samples``; or None
+            (module docstring).
+        racing_candidates: race the first this many ranked designs on fresh samples
+            before validating (:mod:`optimizer.racing`; 0: no racing), or None (module
+            docstring).
+        racing_round: samples per racing candidate and round (>= 1).
+        racing_budget: the most racing samples in all (>= 0).
+        racing_seed: base seed of the racing samples (< 1 000 000); must differ from
+            ``sample_seed`` and ``validation_seed`` when racing.
         optimizer_options: further :class:`~optimizer.bayesopt.ConstrainedBayesOpt`
             settings (not ``n_initial``, ``n_iterations``, ``seed``, ``cheap_constraint``);
             kept as a read-only mapping.
@@ -119,18 +161,28 @@ class RunSettings:
     min_probability: float | None = 0.5
     compare_reference: bool = False
     optimizer_options: Mapping = field(default_factory=dict)
+    fresh_samples: bool | None = None
+    shared_luck: bool | None = None
+    racing_candidates: int | None = None
+    racing_round: int = 100
+    racing_budget: int = 2000
+    racing_seed: int = 2
 
     def __post_init__(self):
-        for name, low in _INT_MINIMUM.items():
+        for name, (low, high) in _INT_RANGE.items():
             value = getattr(self, name)
+            if value is None and name in NEW_RUN_DEFAULTS:
+                continue
             if (isinstance(value, bool) or not isinstance(value, numbers.Integral)
-                    or value < low):
-                raise SettingError(name, value, f"be an integer >= {low}")
+                    or value < low or (high is not None and value > high)):
+                raise SettingError(name, value, f"be an integer >= {low}" + (
+                    f" and <= {high}" if high is not None else ""))
             object.__setattr__(self, name, int(value))
         rule = self.validation_rule
         if not (rule in VALIDATION_RULES or (rule is None and "validation_rule" in NEW_RUN_DEFAULTS)):
             raise SettingError("validation_rule", rule, f"be one of {', '.join(VALIDATION_RULES)}")
-        for name in ("validation_stop", "sequential", "compare_reference"):
+        for name in ("validation_stop", "sequential", "compare_reference", "fresh_samples",
+                     "shared_luck"):
             value = getattr(self, name)
             if not (isinstance(value, bool) or (value is None and name in NEW_RUN_DEFAULTS)):
                 raise SettingError(name, value, "be True or False")
@@ -144,6 +196,11 @@ class RunSettings:
             raise SettingError("validation_seed", self.validation_seed,
                                "differ from sample_seed (a validation draws fresh noise, "
                                "not the optimisation's)")
+        if self.racing_candidates != 0 and self.racing_seed in (self.sample_seed,
+                                                                 self.validation_seed):
+            raise SettingError("racing_seed", self.racing_seed,
+                               "differ from sample_seed and validation_seed (racing draws "
+                               "fresh noise)")
         options = self.optimizer_options
         if not isinstance(options, Mapping):
             raise SettingError("optimizer_options", options, "be a mapping")
@@ -157,15 +214,21 @@ class RunSettings:
         """A copy with ``changes`` (checked again)."""
         return dataclasses.replace(self, **changes)
 
-    def resolved(self, recorded: Mapping | None) -> RunSettings:
+    def resolved(self, recorded: Mapping | None, case=None) -> RunSettings:
         """The ``None`` settings made definite: from ``recorded`` (a resumed run's
         run.json; :data:`RECORDED_DEFAULTS` where it lacks them), or from
-        :data:`NEW_RUN_DEFAULTS` when ``recorded`` is None (a new run)."""
+        :data:`NEW_RUN_DEFAULTS` when ``recorded`` is None (a new run of ``case``)."""
         changes = {}
         for name, new in NEW_RUN_DEFAULTS.items():
             if getattr(self, name) is None:
-                changes[name] = (new if recorded is None
-                                 else recorded.get(name, RECORDED_DEFAULTS[name]))
+                if recorded is not None:
+                    changes[name] = recorded.get(name, RECORDED_DEFAULTS[name])
+                elif callable(new):
+                    if case is None:
+                        raise ValueError(f"resolving {name} for a new run needs its case")
+                    changes[name] = new(case)
+                else:
+                    changes[name] = new
         return self.replace(**changes) if changes else self
 
     def record(self, case_name: str, problem_settings: Mapping) -> dict:
@@ -183,7 +246,11 @@ class RunSettings:
                 "validation_stop": self.validation_stop, "sequential": self.sequential,
                 **problem_settings, "optimizer_options": dict(self.optimizer_options),
                 "min_probability": self.min_probability,
-                "compare_reference": self.compare_reference}
+                "compare_reference": self.compare_reference,
+                "fresh_samples": self.fresh_samples, "shared_luck": self.shared_luck,
+                "racing_candidates": self.racing_candidates,
+                "racing_round": self.racing_round, "racing_budget": self.racing_budget,
+                "racing_seed": self.racing_seed}
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

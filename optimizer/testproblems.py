@@ -15,15 +15,16 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import minimize as _scipy_minimize
-from scipy.stats import norm
+from scipy.stats import beta, norm
 
-from .observation import binomial_observation
+from .observation import binomial_observation, wilson_interval
 
 __all__ = ["TestProblem", "Gardner2014", "Gramacy2016", "NoisyGramacy2016", "BernoulliGramacy2016",
-           "PROBLEMS"]
+           "LatentDifficulty", "PROBLEMS"]
 
 
 class TestProblem:
@@ -240,5 +241,122 @@ class BernoulliGramacy2016(NoisyGramacy2016):
             "successes": k, "samples": m, "p_true": self.success_probability(x)}
 
 
+@dataclass
+class Estimate:
+    """A :class:`~optimizer.problem.ReliabilityEstimate` of :class:`LatentDifficulty`."""
+
+    successes: int
+    n_samples: int
+    base_seed: int
+    p_success: float
+    ci_low: float
+    ci_high: float
+    cp_low: float
+    cp_high: float
+    mass: float
+    mean_completion_time: float = math.nan
+    mean_completion_time_success: float = math.nan
+    failures_by_reason: dict = field(default_factory=dict)
+    key: str = ""
+    reused: int = 0
+
+
+class LatentDifficulty(TestProblem):
+    """A chance-constrained problem with a known truth whose failures share samples as the
+    simulator's do, as a :class:`~optimizer.problem.DesignProblem` for whole runs
+    (:func:`optimizer.run.run_optimization` with Case 1).
+
+    Design x in [0, 1]^2; objective ("mass") ``x1 + x2``, exact; success probability
+    ``P_s(x) = Phi(-c1(x) / s)`` with the first constraint ``c1`` of
+    :class:`Gramacy2016` (``s = 0.1``), known in closed form.  Sample ``i`` of base seed
+    ``b`` draws one uniform ``u_i`` (``numpy.random.default_rng(b * 1_000_003 + i)``, the
+    simulator's seed of that sample) and fails design x when ``u_i >= P_s(x)``: ``u_i``
+    is the sample's difficulty, shared by every design, so designs near one another fail
+    on the same samples (with common random numbers a design's observed P*_s is the
+    empirical distribution function of the ``u_i`` at ``P_s(x)``, the same luck for all
+    of them).  Feasible when ``P_s(x) >= p_min`` (default 0.98).
+    """
+
+    name = "latent_difficulty"
+    bounds = [(0.0, 1.0), (0.0, 1.0)]
+    variable_names = ("x1", "x2")
+    horizon = math.nan
+    grid_points = 801
+
+    def __init__(self, p_min: float = 0.98, s: float = 0.1):
+        self.p_min, self.s = float(p_min), float(s)
+        self.thresholds = {"p_success": self.p_min}
+        self._u: dict[int, np.ndarray] = {}
+
+    # --- the truth
+    def objective(self, x) -> float:
+        return float(x[0] + x[1])
+
+    def success_probability(self, x) -> float:
+        """True P_s(x)."""
+        return float(norm.cdf(-_gramacy_c1(np.asarray(x, dtype=float)) / self.s))
+
+    def true_constraints(self, x):
+        return {"p_success": self.success_probability(x)}
+
+    def _grid_values(self, X):
+        return X.sum(1), _gramacy_c1(X) <= -self.s * norm.ppf(self.p_min)
+
+    def _slsqp_constraints(self, x):
+        return np.array([-self.s * norm.ppf(self.p_min) - _gramacy_c1(np.asarray(x, float))])
+
+    def optimum(self, p_min: float) -> float:
+        """The least objective of a design with P_s >= ``p_min`` (computed)."""
+        return LatentDifficulty(p_min, self.s).reference_optimum()[1]
+
+    # --- the DesignProblem
+    def mass(self, x) -> float:
+        return self.objective(x)
+
+    def difficulties(self, base_seed: int, n: int) -> np.ndarray:
+        """u_0..u_{n-1} of ``base_seed``."""
+        u = self._u.get(base_seed, np.zeros(0))
+        if len(u) < n:
+            more = [np.random.default_rng(base_seed * 1_000_003 + i).random()
+                    for i in range(len(u), n)]
+            u = self._u[base_seed] = np.concatenate([u, more])
+        return u[:n]
+
+    def evaluate(self, x, n_samples=None, base_seed=0, *, stop=None, results_path=None,
+                 label="", progress=None):
+        if n_samples is None:          # TestProblem.evaluate: the noise-free observation
+            return super().evaluate(x)
+        x = np.asarray(x, dtype=float)
+        ok = self.difficulties(int(base_seed), int(n_samples)) < self.success_probability(x)
+        m = len(ok) if stop is None else (stop(ok.tolist()) or len(ok))
+        k = int(ok[:m].sum())
+        lo, hi = wilson_interval(k, m)
+        cp_lo = 0.0 if k == 0 else float(beta.ppf(0.025, k, m - k + 1))
+        cp_hi = 1.0 if k == m else float(beta.ppf(0.975, k + 1, m - k))
+        if progress is not None:
+            progress(m, m)
+        return Estimate(successes=k, n_samples=m, base_seed=int(base_seed), p_success=k / m,
+                        ci_low=lo, ci_high=hi, cp_low=cp_lo, cp_high=cp_hi,
+                        mass=self.objective(x),
+                        failures_by_reason={"u_i >= P_s(x)": m - k} if m > k else {},
+                        key=f"{self.name}:{x.tolist()}")
+
+    def design_dict(self, x) -> dict:
+        return {n: float(v) for n, v in zip(self.variable_names, x)}
+
+    def reference_design(self, name):
+        return None
+
+    def published_outcome(self, name):
+        return None
+
+    def settings(self) -> dict:
+        return {"problem": self.name, "p_min": self.p_min, "s": self.s,
+                "model_version": self.name}
+
+    def describe(self) -> str:
+        return f"{self.name} test problem (in-process)"
+
+
 PROBLEMS = {p.name: p for p in (Gardner2014, Gramacy2016, NoisyGramacy2016,
-                                BernoulliGramacy2016)}
+                                BernoulliGramacy2016, LatentDifficulty)}

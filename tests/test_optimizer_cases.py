@@ -458,12 +458,12 @@ def test_cli_optimize_json_tiny_real_run(cli_run):
     assert "| source's mass-min (Table 4) | 7.53 | 27.4 | 0.98 | 0.983 |" in md
     rows = (run_dir / "results.csv").read_text().splitlines()
     assert rows[0].startswith("case,design,evaluation,m_c") and len(rows) == 2
-    # sequential sampling (the default): one sample record per sample the observations rest
-    # on (in-process: one sample per batch, so none is drawn past a decision)
+    # sequential sampling (the default): a sample record for every sample the observations
+    # rest on, and for those drawn past a decision within a batch (the backend's lanes)
     assert d["sampling"] == "sequential" and d["episodes_full"] == 15
     samples_column = [int(line.split(",")[13]) for line in _history(run_dir)[1:]]
     assert sum(samples_column) == d["episodes"] <= 15
-    assert len((run_dir / "samples.jsonl").read_text().splitlines()) == d["episodes"]
+    assert d["episodes"] <= len(sample_lines(run_dir / "samples.jsonl")) <= 15
 
 
 def test_cli_status_reads_the_run_directory(cli_run):

@@ -73,14 +73,16 @@ SUMMARY_FIELDS = ("evaluations", "feasible_evaluations", "selection_rule", "best
                   "best_vector", "best_evaluation", "best_objective", "p_success",
                   "p_success_ci", "successes", "mass", "mean_completion_time", "validation",
                   "table")
+#: the procedure the goldens were recorded with: common random numbers, no racing
+BEFORE = dict(fresh_samples=False, racing_candidates=0)
 #: the runs as recorded (the source's validation rule, which was the default then)
 RUNS = {
     "synthetic-mass": dict(case="mass", iterations=6, seed_points=6, samples=10,
-                           validation_samples=20, validation_rule="estimate"),
+                           validation_samples=20, validation_rule="estimate", **BEFORE),
     "synthetic-time": dict(case="time", iterations=4, seed_points=6, samples=10,
-                           validation_samples=10, validation_rule="estimate"),
+                           validation_samples=10, validation_rule="estimate", **BEFORE),
     "real-mass": dict(case="mass", iterations=1, seed_points=3, samples=2, validation_samples=2,
-                      validation_rule="estimate"),
+                      validation_rule="estimate", **BEFORE),
 }
 
 

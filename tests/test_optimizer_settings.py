@@ -5,6 +5,7 @@ import dataclasses
 
 import pytest
 
+from optimizer.cases import CASE_MASS, CASE_TIME
 from optimizer.run import run_optimization
 from optimizer.settings import (NEW_RUN_DEFAULTS, RECORDED_DEFAULTS, RunError, RunSettings,
                                 SettingError)
@@ -28,6 +29,13 @@ from tethernet_ros import cli
     ("min_probability", float("nan"), "min_probability: got nan; must be None or a number"),
     ("optimizer_options", [1], "optimizer_options: got [1]; must be a mapping"),
     ("optimizer_options", {"seed": 3}, "must not set ['seed']"),
+    ("sample_seed", 1_000_000, "sample_seed: got 1000000; must be an integer >= 0 and <= 999999"),
+    ("fresh_samples", 0, "fresh_samples: got 0; must be True or False"),
+    ("racing_candidates", -1, "racing_candidates: got -1; must be an integer >= 0"),
+    ("racing_round", 0, "racing_round: got 0; must be an integer >= 1"),
+    ("racing_budget", -5, "racing_budget: got -5; must be an integer >= 0"),
+    ("racing_seed", 0, "racing_seed: got 0; must differ from sample_seed and validation_seed"),
+    ("racing_seed", 1, "racing_seed: got 1; must differ from sample_seed and validation_seed"),
 ])
 def test_every_field_is_checked(name, value, message):
     with pytest.raises(SettingError) as err:
@@ -46,8 +54,10 @@ def test_settings_are_frozen_and_normalised():
     assert s.replace(samples=7).samples == 7 and s.samples == 100
     with pytest.raises(SettingError, match="samples"):
         s.replace(samples=0)
-    # no validation: the validation seed may equal the optimisation's
+    # no validation: the validation seed may equal the optimisation's; no racing: the
+    # racing seed may equal either
     assert RunSettings(validation_samples=0, validation_seed=1).validation_seed == 1
+    assert RunSettings(racing_candidates=0, racing_seed=0).racing_seed == 0
 
 
 def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
@@ -55,15 +65,21 @@ def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
     assert all(getattr(s, name) is None for name in NEW_RUN_DEFAULTS)
     with pytest.raises(ValueError, match="resolved"):
         s.record("mass", {})
-    new = s.resolved(None)
-    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == NEW_RUN_DEFAULTS
+    new = s.resolved(None, CASE_MASS)
+    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == {
+        n: v(CASE_MASS) if callable(v) else v for n, v in NEW_RUN_DEFAULTS.items()}
+    assert new.fresh_samples is True                   # Case 1: exact objective
+    assert s.resolved(None, CASE_TIME).fresh_samples is False   # Case 2: mean T compared
+    with pytest.raises(ValueError, match="needs its case"):
+        s.resolved(None)
     old = s.resolved({})                 # a run.json from before the settings existed
     assert {n: getattr(old, n) for n in NEW_RUN_DEFAULTS} == {
         n: RECORDED_DEFAULTS[n] for n in NEW_RUN_DEFAULTS}
-    flipped = {n: not v if isinstance(v, bool) else v for n, v in NEW_RUN_DEFAULTS.items()}
+    flipped = {n: not v if isinstance(v, bool) else v for n, v in new.record('mass', {}).items()
+               if n in NEW_RUN_DEFAULTS}
     assert s.resolved(flipped) == s.replace(**flipped)
     explicit = RunSettings(validation_stop=False)
-    assert explicit.resolved(None).validation_stop is False
+    assert explicit.resolved(None, CASE_MASS).validation_stop is False
     rec = new.record("mass", {"model_version": "m"})
     assert rec["case"] == "mass" and rec["model_version"] == "m"
     assert set(RunSettings.field_names()) <= set(rec)

@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from optimizer.settings import RunSettings, SettingError
+from optimizer.settings import NEW_RUN_DEFAULTS, RunSettings, SettingError
 
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
                      backend_from_args, check_backend_arguments, config_from_args,
@@ -63,6 +63,32 @@ def add_arguments(p):
                         "the 21st of 1000; the chosen design always gets every sample). "
                         "Default: on for a new run; on --resume, as the run recorded it (off "
                         "for runs that predate it)")
+    p.add_argument("--racing-candidates", type=int, default=d.racing_candidates, metavar="K",
+                   help="before validating, race the first K ranked designs on fresh samples "
+                        "in rounds, dropping one once its Wilson 95 %% upper bound falls "
+                        "below 0.98, until the lightest left clears 0.98 with its lower "
+                        "bound or the budget is spent; the validations then skip the dropped "
+                        f"ones.  Default: {NEW_RUN_DEFAULTS['racing_candidates']} for a new "
+                        "run; on --resume, as the run recorded it (0 for runs that predate "
+                        "it); 0: no racing")
+    p.add_argument("--racing-round", type=int, default=d.racing_round, metavar="R",
+                   help=f"racing samples per candidate and round (default {d.racing_round})")
+    p.add_argument("--racing-budget", type=int, default=d.racing_budget, metavar="B",
+                   help=f"racing samples in all, at most (default {d.racing_budget})")
+    p.add_argument("--racing-seed", type=int, default=d.racing_seed, metavar="S",
+                   help=f"base seed of the racing samples (default {d.racing_seed})")
+    p.add_argument("--fresh-samples", action=argparse.BooleanOptionalAction, default=None,
+                   help="give every design samples of its own instead of the same samples "
+                        "for all (common random numbers), so that the feasibility model's "
+                        "observations are independent.  Default for a new run: on for "
+                        "--case mass (exact objective), off for --case time (common samples "
+                        "compare mean T); on --resume, as the run recorded it")
+    p.add_argument("--shared-luck", action=argparse.BooleanOptionalAction, default=None,
+                   help="with common random numbers (--no-fresh-samples), let the "
+                        "feasibility model take the luck that all designs share on the "
+                        "same samples into account instead of taking their estimates as "
+                        "independent.  Default for a new run: off; on --resume, as the run "
+                        "recorded it")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
@@ -141,7 +167,10 @@ def run_settings(args) -> RunSettings:
         validation_candidates=args.validation_candidates,
         validation_rule=args.validation_rule, validation_stop=args.validation_stop,
         sequential=not args.full_sampling, compare_reference=args.compare_reference,
-        optimizer_options=options)
+        optimizer_options=options, fresh_samples=args.fresh_samples,
+        shared_luck=args.shared_luck,
+        racing_candidates=args.racing_candidates, racing_round=args.racing_round,
+        racing_budget=args.racing_budget, racing_seed=args.racing_seed)
 
 
 class OptimizeProgress:

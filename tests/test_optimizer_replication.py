@@ -1,0 +1,96 @@
+"""The replication benchmark's problem with a known truth (optimizer.testproblems.
+LatentDifficulty) and, in a short form, the benchmark itself (benchmarks/
+bench_replication.py; the full one: docs/cases/replication.md)."""
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from optimizer.sequential import SequentialRule
+from optimizer.testproblems import LatentDifficulty
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_latent_difficulty_fails_nearby_designs_on_the_same_samples():
+    """Sample i fails design x exactly when its difficulty u_i >= P_s(x): the failures of a
+    more reliable design are a subset of a less reliable one's (common random numbers),
+    fresh base seeds draw other difficulties, and the estimate's fields agree with the
+    samples."""
+    p = LatentDifficulty()
+    lo, hi = np.array([0.33, 0.43]), np.array([0.34, 0.44])
+    assert p.success_probability(lo) < p.success_probability(hi)
+    u = p.difficulties(5, 400)
+    fail_lo = set(np.flatnonzero(u >= p.success_probability(lo)))
+    fail_hi = set(np.flatnonzero(u >= p.success_probability(hi)))
+    assert fail_hi <= fail_lo
+    r = p.evaluate(lo, 400, 5)
+    assert (r.successes, r.n_samples) == (400 - len(fail_lo), 400)
+    assert r.ci_low <= r.p_success <= r.ci_high and r.cp_low <= r.p_success <= r.cp_high
+    assert r.mass == pytest.approx(0.76)                # x1 + x2
+    assert u[0] == np.random.default_rng(5 * 1_000_003).random()     # the simulator's seeds
+    assert not np.array_equal(p.difficulties(6, 400), u)
+    rule = SequentialRule(100, 0.98)
+    bad = np.array([0.1, 0.1])                        # P_s far below 0.98
+    s = p.evaluate(bad, 100, 5, stop=rule)
+    assert s.n_samples - s.successes == 3 and s.n_samples < 100     # decided at failure 3
+
+
+def test_latent_difficulty_optimum_is_the_least_objective_meeting_the_requirement():
+    p = LatentDifficulty()
+    x, f = p.reference_optimum()
+    assert p.success_probability(x) == pytest.approx(0.98, abs=1e-9)
+    rng = np.random.default_rng(0)
+    X = rng.random((200_000, 2))
+    ok = np.array([p.success_probability(v) >= 0.98 for v in X[X.sum(1) < f + 0.02]])
+    assert ok.any() and X[X.sum(1) < f + 0.02][ok].sum(1).min() >= f - 1e-9
+    assert p.optimum(0.99) > p.optimum(0.985) > f
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench_replication",
+                                                  ROOT / "benchmarks" / "bench_replication.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.slow
+def test_replication_benchmark_short_form(tmp_path, capsys):
+    """Two replications of every method on a small budget: each is appended as it
+    finishes, its truth recomputed from the closed form agrees, a rerun runs nothing
+    again (a line cut short by a kill is skipped), and the table lists every method."""
+    bench = _bench()
+    out = tmp_path / "rep.jsonl"
+    argv = ["--replications", "2", "--seed-points", "6", "--iterations", "6",
+            "--validation-samples", "200", "--validation-candidates", "3",
+            "--racing-round", "50", "--racing-budget", "600", "--gp-restarts", "0",
+            "--candidates", "2000", "--out", str(out)]
+    assert bench.main(argv) == 0
+    records = [json.loads(line) for line in out.read_text().splitlines()]
+    assert len(records) == 2 * len(bench.METHODS)
+    problem = LatentDifficulty()
+    f_star = problem.optimum(0.98)
+    for r in records:
+        assert r["episodes_total"] == r["episodes"] + r["episodes_racing"] + r["episodes_validation"]
+        if r["x"] is not None:
+            assert r["p_true"] == problem.success_probability(r["x"])
+            assert r["truly_meets"] == (r["p_true"] >= 0.98)
+            assert r["regret"] == pytest.approx(r["objective"] - f_star)
+            assert r["objective"] == pytest.approx(sum(r["x"]))
+        if r["method"] in ("estimate", "wilson", "fresh", "shared"):
+            assert r["episodes_racing"] == 0
+        else:
+            assert r["episodes_racing"] > 0
+    text = capsys.readouterr().out
+    for method in bench.METHODS:
+        assert f"\n{method} " in text
+    with open(out, "a") as fh:
+        fh.write('{"method": "new", "replica')                  # a kill mid-line
+    assert bench.main(argv) == 0
+    assert len(out.read_text().splitlines()) == 2 * len(bench.METHODS) + 1
+    table = capsys.readouterr().out
+    assert "replication" not in table.split("method")[0]        # nothing was run again
+    assert "f*(0.98) = " in table
