@@ -35,7 +35,9 @@ setup(
             "sim_node = tethernet_ros.ros.nodes.sim_node:main",
             "monitor_node = tethernet_ros.ros.nodes.monitor_node:main",
             "actuator_node = tethernet_ros.ros.nodes.actuator_node:main",
+            "sensor_node = tethernet_ros.ros.nodes.sensor_node:main",
             "capture_node = tethernet_ros.ros.nodes.capture_node:main",
+            "example_controller = tethernet_ros.ros.examples.lead_controller:main",
         ],
     },
 )

@@ -2,8 +2,9 @@
 suite's RunCapture service, results read back from the recorded MCAP bags.
 
 Same per-sample results as the in-process backend for the same seeds (short scenario,
-settle time 2 s); one suite serves a whole evaluation; a damaged bag is refused; and
-`tethernet optimize --via ros` runs a tiny optimisation through the suite.  About a minute.
+settle time 2 s); one suite serves a whole evaluation; two suites side by side (each in
+its own ROS domain) give them too; a damaged bag is refused; and `tethernet optimize --via
+ros` runs a tiny optimisation through the suite.  About a minute.
 """
 import json
 import math
@@ -50,6 +51,23 @@ def test_ros_backend_equals_in_process(tmp_path):
     assert list(bag_dir.iterdir()) == []                  # bags read, then removed
 
 
+def test_two_suites_side_by_side_equal_in_process(tmp_path):
+    """RosBackend(workers=2): two suites in domains of their own, a sample each as they
+    free up; a tumbling target (a transverse axis drawn per sample) through the actuator's
+    LaunchCommand: the in-process results, sample for sample."""
+    from tethernet_ros.core.tumble import TumbleConfig
+
+    cfg = CONFIG.replace(tumble=TumbleConfig(rate_deg_s=3.0, axis="transverse"))
+    ref = evaluate(DESIGN, 4, 9, config=cfg, backend=InProcessBackend())
+    with RosBackend(workers=2, log_dir=tmp_path / "logs") as be:
+        got = evaluate(DESIGN, 4, 9, config=cfg, backend=be)
+        assert be.suite_starts == 2 and be.episodes == 4
+        assert "x 2 (domains" in be.describe()
+    for a, b in zip(ref.samples, got.samples):
+        for f in FIELDS:                                   # bit for bit
+            assert same(getattr(a, f), getattr(b, f)), (f, getattr(a, f), getattr(b, f))
+
+
 def test_ros_backend_kept_bag_and_damaged_bag(tmp_path):
     bag_dir = tmp_path / "bags"
     with RosBackend(bag_dir=bag_dir, keep_bags=True, log_dir=tmp_path / "logs") as be:
@@ -82,4 +100,6 @@ def test_cli_optimize_via_ros(tmp_path):
     assert out.returncode == 0, out.stderr[-3000:]
     d = json.loads(out.stdout)
     assert d["evaluations"] == 2 and "ROS 2 suite" in d["backend"]
-    assert len(list((tmp_path / "run" / "bags").iterdir())) == 2 + (1 if d["best_design"] else 0)
+    # a bag per episode: the evaluations', and those of racing and validation (if any)
+    episodes = d.get("episodes_total", 2 + (1 if d["best_design"] else 0))
+    assert len(list((tmp_path / "run" / "bags").iterdir())) == episodes

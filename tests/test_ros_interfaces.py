@@ -8,6 +8,7 @@ conftest.py). Runs in a few seconds.
 import math
 import time
 
+import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
@@ -18,11 +19,16 @@ from rclpy.serialization import deserialize_message, serialize_message  # noqa: 
 from tethernet_msgs.msg import (  # noqa: E402
     CaptureMetrics,
     ClosingCommand,
+    ClosingDecision,
     Design,
     EpisodeResult,
+    EpisodeSetup,
     LaunchCommand,
+    Measurement,
     NetState,
+    NoiseSample,
     NoiseSettings,
+    Tumble,
 )
 from tethernet_msgs.action import Capture  # noqa: E402
 from tethernet_msgs.srv import RunCapture  # noqa: E402
@@ -51,7 +57,37 @@ EXPECTED_FIELDS = {
     LaunchCommand: {
         "header": "std_msgs/Header", "seed": "uint64", "corner_velocities": "sequence<double>",
         "distance_to_target": "double", "target_rotation": "double", "rotation_axis": "string",
+        "spin_rate": "double", "spin_axis": "double[3]", "spin_phase": "double",
+        "noise": "tethernet_msgs/NoiseSample",
     },
+    EpisodeSetup: {
+        "header": "std_msgs/Header", "episode_id": "string", "design": "tethernet_msgs/Design",
+        "seed": "uint64", "nominal": "boolean", "noise": "tethernet_msgs/NoiseSettings",
+        "sim_config_json": "string", "lockstep": "boolean",
+    },
+    Tumble: {"rate_deg_s": "double", "axis": "string", "axis_vector": "double[3]",
+             "phase_deg": "double"},
+    NoiseSample: {
+        "nominal": "boolean", "seed": "uint64", "distance_offset": "double",
+        "orientation_angle": "double", "orientation_axis": "string",
+        "speed_offsets": "double[4]", "polar_angles": "double[4]", "azimuth_angles": "double[4]",
+        "closing_offset": "double", "spin_rate_offset": "double", "spin_axis_tilt": "double",
+        "spin_axis_azimuth": "double", "spin_phase": "double", "spin_transverse_angle": "double",
+        "sigma_distance": "double", "sigma_orientation_deg": "double", "sigma_speed": "double",
+        "sigma_polar_deg": "double", "azimuth_range_deg": "double", "sigma_closing": "double",
+        "sigma_spin_rate": "double", "sigma_spin_axis_deg": "double",
+        "spin_phase_range_deg": "double", "scales": "tethernet_msgs/NoiseSettings",
+    },
+    Measurement: {
+        "header": "std_msgs/Header", "episode_id": "string", "step": "uint32", "valid": "boolean",
+        "closing_displacement": "double", "net_point": "geometry_msgs/Point",
+        "target_position": "geometry_msgs/Point",
+        "target_orientation": "geometry_msgs/Quaternion",
+        "target_angular_velocity": "geometry_msgs/Vector3",
+        "target_velocity": "geometry_msgs/Vector3",
+    },
+    ClosingDecision: {"header": "std_msgs/Header", "episode_id": "string", "step": "uint32",
+                      "close": "boolean", "controller": "string"},
     ClosingCommand: {"header": "std_msgs/Header", "closing_displacement": "double"},
     EpisodeResult: {
         "header": "std_msgs/Header", "episode_id": "string", "seed": "uint64",
@@ -67,11 +103,12 @@ EXPECTED_FIELDS = {
     NoiseSettings: {
         "distance_scale": "double", "orientation_scale": "double", "speed_scale": "double",
         "polar_scale": "double", "azimuth_scale": "double", "closing_scale": "double",
-        "orientation_axis": "string",
+        "spin_scale": "double", "orientation_axis": "string",
     },
     RunCapture.Request: {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
+        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble",
     },
     RunCapture.Response: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
@@ -80,6 +117,7 @@ EXPECTED_FIELDS = {
     Capture.Goal: {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
+        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble",
     },
     Capture.Result: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
@@ -123,7 +161,7 @@ def _net_state(step: int) -> NetState:
 def _all_messages():
     noise = NoiseSettings(distance_scale=1.0, orientation_scale=1.0, speed_scale=2.0,
                           polar_scale=0.1, azimuth_scale=1.0, closing_scale=10.0,
-                          orientation_axis="y")
+                          spin_scale=0.5, orientation_axis="y")
     result = EpisodeResult(episode_id="ep-1", seed=7, nominal=False, success=True,
                            settled_cqi=1.25, locked_pairs=11, closing_time=9.5,
                            completion_time=29.5, mass=2.38, failure_reason="", wall_time=3.2)
@@ -140,7 +178,11 @@ def _all_messages():
         _baseline_design(),
         noise,
         RunCapture.Request(design=_baseline_design(), seed=11, nominal=True, noise=noise,
-                           record_bag=True, bag_name="baseline_11"),
+                           record_bag=True, bag_name="baseline_11", set_tumble=True,
+                           tumble=Tumble(rate_deg_s=2.5, axis="", axis_vector=[0.0, 1.0, 1.0],
+                                         phase_deg=45.0)),
+        Measurement(episode_id="ep-1", step=40, valid=True, closing_displacement=2.26),
+        ClosingDecision(episode_id="ep-1", step=40, close=True, controller="mine"),
         RunCapture.Response(status=RunCapture.Response.SUCCEEDED, error="", result=result,
                             bag_path="bags/baseline_11"),
         Capture.Result(status=Capture.Result.CANCELED, error="canceled by the client",
@@ -184,8 +226,45 @@ def test_defaults():
     # noise settings left out of a request are the nominal spreads, not "no noise"
     n = RunCapture.Request().noise
     assert [n.distance_scale, n.orientation_scale, n.speed_scale, n.polar_scale,
-            n.azimuth_scale, n.closing_scale] == [1.0] * 6
+            n.azimuth_scale, n.closing_scale, n.spin_scale] == [1.0] * 7
     assert n.orientation_axis == "z" and RunCapture.Request().nominal is False
+    # a request that leaves its tumble out keeps the capture node's configuration
+    r = RunCapture.Request()
+    assert r.set_tumble is False and r.tumble.axis == "flat" and r.tumble.rate_deg_s == 0.0
+
+
+def test_loop_messages_carry_the_bits():
+    """A measurement crosses Measurement (and CDR) bit for bit, NaN and -0.0 included; the
+    tumble and the noise draw round-trip; bad tumble fields are named with their range."""
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.core.sensing import N_CHANNELS
+    from tethernet_ros.core.tumble import TumbleConfig
+    from tethernet_ros.ros import conversions as conv
+
+    rng = np.random.default_rng(1)
+    values = rng.standard_normal(N_CHANNELS) * 10.0 ** rng.integers(-300, 300, N_CHANNELS)
+    values[1], values[7] = math.nan, -0.0
+    m = conv.measurement_msg(values, 120, 0.12, "ep", 2.25)
+    back = conv.measurement_from_msg(deserialize_message(serialize_message(m), Measurement))
+    assert back.tobytes() == values.tobytes()
+    empty = conv.measurement_msg(None, 20, 0.02, "ep", 2.25)
+    assert conv.measurement_from_msg(empty) is None and not empty.valid
+    for t in (TumbleConfig(), TumbleConfig(rate_deg_s=12.5, axis="los", phase_deg=-30.0),
+              TumbleConfig(rate_deg_s=60.0, axis=(0.0, 3.0, 4.0))):
+        assert conv.tumble_from_msg(conv.tumble_msg(t)) == t
+    for fields, words in (({"rate_deg_s": 60.5}, r"^tumble\.rate_deg_s: got 60\.5; must be a rate "
+                                                 r"in \[0, 60\] deg/s$"),
+                          ({"axis": ""}, r"^tumble\.axis_vector: got the zero vector"),
+                          ({"axis": "up"}, r"^tumble\.axis: got 'up'; must be one of .*axis_vector"),
+                          ({"phase_deg": math.inf}, r"^tumble\.phase_deg: got inf")):
+        msg = Tumble(**fields)
+        with pytest.raises(conv.RequestError, match=words):
+            conv.tumble_from_msg(msg)
+    model = NoiseModel(sigma_spin_rate=0.3, scales={"spin": 2.0})
+    sample = model.sample(17)
+    drawn, spreads = conv.noise_sample_from_msg(conv.noise_sample_msg(sample, model))
+    assert drawn == sample and spreads == model.spreads()
+    assert conv.noise_sample_msg(None, None).nominal
 
 
 @pytest.fixture()

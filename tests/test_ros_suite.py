@@ -36,7 +36,7 @@ from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.core.layout import grid_thread_pairs  # noqa: E402
 from tethernet_ros.core.scenario import (actions_for, scenario_for,  # noqa: E402
                                          world_for)
-from tethernet_ros.ros.names import TOPICS  # noqa: E402
+from tethernet_ros.ros.names import ALWAYS_RECORDED, TOPICS  # noqa: E402
 from tethernet_ros.ros.parameters import DEFAULTS  # noqa: E402
 from tethernet_ros.ros.suite import RosSuite  # noqa: E402
 
@@ -130,8 +130,16 @@ def test_bag_with_rosbags(captured, reference):
         TOPICS["verdict"]: "tethernet_msgs/msg/EpisodeResult",
         TOPICS["clock"]: "rosgraph_msgs/msg/Clock",
         TOPICS["cancel"]: "std_msgs/msg/String",
+        TOPICS["true_measurement"]: "tethernet_msgs/msg/Measurement",
+        TOPICS["measurement"]: "tethernet_msgs/msg/Measurement",
+        TOPICS["closing_decision"]: "tethernet_msgs/msg/ClosingDecision",
+        TOPICS["sensed_target_pose"]: "geometry_msgs/msg/PoseWithCovarianceStamped",
+        TOPICS["sensed_target_twist"]: "geometry_msgs/msg/TwistWithCovarianceStamped",
+        TOPICS["sensed_net_point"]: "geometry_msgs/msg/PointStamped",
     }
     assert TOPICS["cancel"] not in msgs                 # nothing canceled
+    for key in ("true_measurement", "measurement", "closing_decision", "sensed_target_pose"):
+        assert TOPICS[key] not in msgs, key             # the policy ran in the kernel
     # one setup, one of each command, one result, one verdict
     for key in ("setup", "launch_command", "closing_command", "result", "verdict"):
         assert len(msgs[TOPICS[key]]) == 1, key
@@ -184,8 +192,9 @@ def test_bag_with_rosbags(captured, reference):
                                 if s % marker_every == 0 or s == final_step])
     ma = markers[-1].markers
     assert [m.ns for m in ma] == ["net_rows", "net_columns", "corner_threads", "closing_ring",
-                                  "corner_masses", "main_tether", "target", "chaser"]
-    assert [len(m.points) for m in ma] == [289, 289, 8, 24, 4, scen.n_bodies - 293 + 1, 0, 0]
+                                  "corner_masses", "main_tether", "target", "chaser",
+                                  "target_spin"]
+    assert [len(m.points) for m in ma] == [289, 289, 8, 24, 4, scen.n_bodies - 293 + 1, 0, 0, 2]
     # every grid thread is a segment of the row or the column snake
     pts = {(round(p.x, 12), round(p.y, 12), round(p.z, 12)) for p in ma[0].points}
     assert len(pts) == 289 and (ma[0].points[0].x, ma[0].points[0].y, ma[0].points[0].z) == tuple(pos[0])
@@ -404,4 +413,5 @@ def test_cli_capture_via_ros_default_scenario(tmp_path):
     assert Path(got["bag_path"]) == (tmp_path / "bags" / "cli").resolve()
     meta = yaml.safe_load((tmp_path / "bags" / "cli" / "metadata.yaml").read_text())
     topics = {t["topic_metadata"]["name"] for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
-    assert topics == {TOPICS[k] for k in DEFAULTS["capture_node"]["record_topics"]}
+    assert topics == {TOPICS[k] for k in [*DEFAULTS["capture_node"]["record_topics"],
+                                          *ALWAYS_RECORDED]}

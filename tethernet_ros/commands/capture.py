@@ -6,7 +6,8 @@ from pathlib import Path
 
 from ..core.episode import run_episode
 from .common import (add_config_argument, add_design_argument, add_noise_arguments,
-                     config_from_args, design_from_args, noise_model_from_args, print_json)
+                     add_ros_arguments, check_ros_arguments, config_from_args,
+                     controller_config, design_from_args, noise_model_from_args, print_json)
 
 NAME = "capture"
 HELP = "simulate one capture of a design (nominal or one noise sample)"
@@ -23,6 +24,7 @@ def add_arguments(p):
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--via", choices=("library", "ros"), default="library",
                    help="run in-process (default) or through the ROS 2 node suite")
+    add_ros_arguments(p, via=False)
     p.add_argument("--no-bag", action="store_true", help="with --via ros: do not record a bag")
     p.add_argument("--bag-name", default=None, help="with --via ros: bag folder name under bags/")
     p.add_argument("--png", default=None, metavar="PATH",
@@ -38,15 +40,18 @@ def run(args) -> int:
     model = noise_model_from_args(args)
     if args.seed is not None and args.seed < 0:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
+    check_ros_arguments(args)
     sample = None if args.seed is None else model.sample(args.seed)
-    config = config_from_args(args, **({"state_rate": args.state_rate} if args.state_rate else {}))
+    config = controller_config(args, config_from_args(
+        args, **({"state_rate": args.state_rate} if args.state_rate else {})))
     t0 = time.perf_counter()
     bag_path = None
     if args.via == "ros":
         from ..ros.suite import capture_via_ros
 
         result, bag_path = capture_via_ros(design, seed=args.seed, noise_model=model, config=config,
-                                           record_bag=not args.no_bag, bag_name=args.bag_name)
+                                           record_bag=not args.no_bag, bag_name=args.bag_name,
+                                           lockstep=args.lockstep, controller=args.controller)
     else:
         result = run_episode(design, sample, config)
     wall = time.perf_counter() - t0

@@ -3,18 +3,64 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from optimizer.jsonio import json_clean
 
-from ..core.design import Design, load_design
+from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
 from ..core.noise import NOISE_SOURCES, NoiseModel
+from ..core.policies import POLICIES
+from ..core.sensing import NET_POINTS
+from ..core.tumble import AXES, TRANSVERSE
 from ..errors import UserError
+
+#: the tumble's named axes (core/tumble.py), for --tumble-axis
+TUMBLE_AXES = (*AXES, TRANSVERSE)
+#: the closing policies a command line may choose ('external' needs a controller node:
+#: --via ros --controller)
+CLI_POLICIES = tuple(k for k in POLICIES if k != "external")
+#: command-line flag -> the nested SimConfig field it sets
+SCENARIO_FLAGS = {
+    "--tumble-rate": ("tumble", "rate_deg_s"), "--tumble-axis": ("tumble", "axis"),
+    "--tumble-phase": ("tumble", "phase_deg"), "--policy": ("policy", "kind"),
+    "--net-point": ("sensing", "net_point"), "--sensing-rate": ("sensing", "rate_hz"),
+    "--latency": ("sensing", "latency"),
+}
 
 
 def add_design_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--design", required=True, metavar="NAME|FILE.yaml",
                    help="reference design (baseline, suboptimal, mass-min, time-min) or a YAML "
-                        "file with keys m_c, L_n, r_n, d_L, V_e, d_c")
+                        "file with keys m_c, L_n, r_n, d_L, V_e, d_c (and optionally a tumble: "
+                        "mapping: rate_deg_s, axis, phase_deg)")
+
+
+def read_design_file(name_or_path: str) -> tuple[Design, dict | None]:
+    """A design by name or YAML file (``core.design.load_design``) and the file's
+    ``tumble:`` mapping (TumbleConfig fields; at the top level or beside the design's keys
+    under ``design:``), None if it has none."""
+    path = Path(name_or_path)
+    if name_or_path in REFERENCE_DESIGNS or not path.is_file():
+        return load_design(name_or_path), None
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError:
+        return load_design(name_or_path), None           # (its error names the line)
+    if not isinstance(data, dict):
+        return load_design(name_or_path), None
+    data = dict(data)
+    tumble = data.pop("tumble", None)
+    inner = data.get("design")
+    if isinstance(inner, dict):
+        inner = dict(inner)
+        tumble = inner.pop("tumble", tumble)
+        data = inner
+    if tumble is not None and not isinstance(tumble, dict):
+        raise DesignError("tumble", f"in {str(path)!r}: got {tumble!r}; must be a mapping of "
+                          "rate_deg_s (deg/s), axis and phase_deg (deg)")
+    return Design.from_dict(data), tumble
 
 
 def add_noise_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,19 +72,81 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_config_argument(p: argparse.ArgumentParser) -> None:
+    """--config and the scenario's options (tumble, sensing, closing policy), which set
+    the nested SimConfig fields over --config and a design file's ``tumble:``."""
     p.add_argument("--config", default=None, metavar="FILE.yaml",
                    help="simulation settings overriding the defaults of docs/model.md (SimConfig fields, "
-                        "e.g. settle_time: 20.0, dt_safety: 0.5, target: {nozzle: true})")
+                        "e.g. settle_time: 20.0, dt_safety: 0.5, target: {nozzle: true}, "
+                        "tumble: {rate_deg_s: 2}, sensing: {rate_hz: 50}, policy: {kind: adaptive})")
+    g = p.add_argument_group("scenario", "the target's tumble, the sensing and the closing policy "
+                             "(docs/model.md §1, §14); over --config and a design file's tumble:")
+    g.add_argument("--tumble-rate", type=float, default=None, metavar="DEG_S",
+                   help="the target's initial spin rate in [0, 60] deg/s (0: at rest, the default)")
+    g.add_argument("--tumble-axis", default=None, metavar="|".join(TUMBLE_AXES) + "|X,Y,Z",
+                   help="its spin axis in the target's body frame: flat (end over end, "
+                        "default), los (about the line of sight), long (a roll), transverse "
+                        "(random about the long axis), or a vector X,Y,Z")
+    g.add_argument("--tumble-phase", type=float, default=None, metavar="DEG",
+                   help="initial turn of the target about the spin axis (deg)")
+    g.add_argument("--policy", choices=CLI_POLICIES, default=None,
+                   help="closing policy: threshold (the source's rule, default) or adaptive")
+    g.add_argument("--net-point", choices=NET_POINTS, default=None,
+                   help="the net's sensed reference point (default com)")
+    g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",
+                   help="measurements per second in [0, 1000] (0: every step, the default)")
+    g.add_argument("--latency", type=float, default=None, metavar="S",
+                   help="sensing latency in [0, 5] s (default 0)")
+
+
+def tumble_axis(text: str):
+    """A --tumble-axis value: a name of TUMBLE_AXES, or three numbers 'x,y,z'."""
+    if text in TUMBLE_AXES:
+        return text
+    parts = text.split(",")
+    try:
+        values = [float(v) for v in parts]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise UserError(f"--tumble-axis {text!r}: must be one of {', '.join(TUMBLE_AXES)} or "
+                        "three numbers X,Y,Z (a body-frame vector)")
+    return values
+
+
+def scenario_overrides(args) -> tuple[dict, dict]:
+    """(nested SimConfig values of the scenario flags given, e.g. {"tumble": {"rate_deg_s":
+    2.0}}; flag of each value, e.g. {"tumble.rate_deg_s": "--tumble-rate"})."""
+    values: dict = {}
+    flags: dict = {}
+    for flag, (group, field) in SCENARIO_FLAGS.items():
+        v = getattr(args, flag[2:].replace("-", "_"), None)
+        if v is None:
+            continue
+        if flag == "--tumble-axis":
+            v = tumble_axis(v)
+        values.setdefault(group, {})[field] = v
+        flags[f"{group}.{field}"] = flag
+    return values, flags
+
+
+def _design_tumble(args) -> tuple[dict | None, str]:
+    """The ``tumble:`` mapping of the --design file, if it is a file with one."""
+    name = getattr(args, "design", None)
+    if not name or name in REFERENCE_DESIGNS or not Path(name).is_file():
+        return None, ""
+    return read_design_file(name)[1], name
 
 
 def config_from_args(args, **overrides):
-    """SimConfig from --config (if given) with ``overrides`` applied on top."""
+    """SimConfig from --config (if given), the --design file's ``tumble:`` over it, the
+    scenario flags (--tumble-*, --policy, --net-point, --sensing-rate, --latency) over
+    that, and ``overrides`` applied on top.  A bad value is refused naming its flag (or
+    file) and its range."""
     from ..core.config import ConfigError, SimConfig
 
     data = {}
     if getattr(args, "config", None):
         import yaml
-        from pathlib import Path
 
         path = Path(args.config)
         if not path.is_file():
@@ -49,11 +157,31 @@ def config_from_args(args, **overrides):
             raise UserError(f"--config: file {str(path)!r} is not valid YAML") from None
         if not isinstance(data, dict):
             raise UserError(f"--config: file {str(path)!r} must hold a mapping of SimConfig fields")
+    layers = []
+    tumble, design_file = _design_tumble(args)
+    if tumble is not None:
+        layers.append(({"tumble": tumble}, {"tumble." + k: f"--design {design_file} (tumble:)"
+                                            for k in tumble}))
+    layers.append(scenario_overrides(args))
+    where: dict = {}
+    for values, flags in layers:
+        for group, fields_ in values.items():
+            base = data.get(group)
+            data[group] = {**(base if isinstance(base, dict) else {}), **fields_}
+        where.update(flags)
     data.update(overrides)
     try:
         return SimConfig.from_dict(data)
     except TypeError as exc:
         raise ConfigError(f"config: {exc}") from None
+    except ConfigError as exc:
+        text = str(exc)
+        for key, flag in where.items():
+            group, field = key.split(".")
+            if text.startswith(f"{group} field '{field}'") or \
+                    (text.startswith(f"config field '{key}'")):
+                raise ConfigError(f"{flag}: {text}") from None
+        raise
 
 
 def add_backend_arguments(p: argparse.ArgumentParser) -> None:
@@ -72,15 +200,72 @@ def check_backend_arguments(args) -> None:
         raise UserError("--workers 0 (in-process) cannot be combined with --scheduler")
 
 
+def add_ros_arguments(p: argparse.ArgumentParser, via: bool = True) -> None:
+    """--via / --controller / --lockstep of the Monte Carlo commands: the episodes through
+    the ROS 2 suite (--workers K: K suites side by side), the closing decided by a user's
+    controller node or by the built-in policy through the ROS loop (``via``: add --via
+    too)."""
+    if via:
+        p.add_argument("--via", choices=("library", "ros"), default="library",
+                       help="ros: every episode through the ROS 2 node suite (RunCapture), its "
+                            "result read back from its bag; --workers K runs K suites side "
+                            "by side")
+    p.add_argument("--controller", default=None, metavar="SCRIPT|module:Class",
+                   help="with --via ros: your controller node decides when to close, in place "
+                        "of the built-in policy (a console script or a Node class; docs/ros.md, "
+                        "the controller contract), e.g. example_controller")
+    p.add_argument("--lockstep", action="store_true",
+                   help="with --via ros: the built-in closing policy runs through the ROS loop "
+                        "(sensor_node, actuator_node) every control period, not in the kernel "
+                        "(the same results, slower)")
+
+
+def check_ros_arguments(args) -> None:
+    if getattr(args, "via", "library") != "ros":
+        for flag in ("controller", "lockstep"):
+            if getattr(args, flag, None):
+                raise UserError(f"--{flag} needs --via ros (a controller node decides through "
+                                "the ROS suite)")
+        return
+    if getattr(args, "scheduler", None) is not None:
+        raise UserError("--via ros runs the episodes through ROS suites (--workers K of them); "
+                        "it cannot be combined with --scheduler")
+
+
+def controller_config(args, config):
+    """The episodes' SimConfig with --controller: the policy 'external' (a controller
+    outside the kernel decides; so its results file key differs from the built-in's)."""
+    if not getattr(args, "controller", None):
+        return config
+    from dataclasses import replace
+
+    return config.replace(policy=replace(config.policy, kind="external"))
+
+
+def controller_label(args) -> str:
+    """'' or a results-file suffix naming --controller, e.g. '_ctl-example_controller'."""
+    spec = getattr(args, "controller", None)
+    if not spec:
+        return ""
+    name = spec.rsplit(":", 1)[-1] if ":" in spec else Path(spec).name
+    return "_ctl-" + "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
+
+
 def backend_from_args(args):
-    """The EpisodeBackend chosen by --workers / --scheduler."""
+    """The EpisodeBackend chosen by --via ros (RosBackend of --workers suites, default 1),
+    else by --workers / --scheduler."""
+    if getattr(args, "via", "library") == "ros":
+        from ..ros.backend import RosBackend
+
+        return RosBackend(workers=args.workers or 1, lockstep=getattr(args, "lockstep", False),
+                          controller=getattr(args, "controller", None))
     from ..montecarlo import make_backend
 
     return make_backend(workers=args.workers, scheduler=args.scheduler)
 
 
 def design_from_args(args) -> Design:
-    return load_design(args.design)
+    return read_design_file(args.design)[0]
 
 
 def noise_model_from_args(args) -> NoiseModel:

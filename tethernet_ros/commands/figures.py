@@ -10,7 +10,8 @@ import argparse
 import csv
 from pathlib import Path
 
-from .common import add_config_argument, add_noise_arguments, config_from_args, noise_model_from_args
+from .common import (add_config_argument, add_noise_arguments, config_from_args,
+                     controller_label, noise_model_from_args)
 from .validate import (Progress, add_run_arguments, backend_from_args, check_run_arguments,
                        default_results_path, design_label, run_config)
 
@@ -58,15 +59,15 @@ def run(args) -> int:
 
 
 def run_cqi(args) -> int:
-    from ..core.design import load_design
+    from .common import read_design_file
     from ..figures.montecarlo import plot_cqi_traces
     from ..montecarlo import evaluate
 
     check_run_arguments(args)
-    design = load_design(args.design)
+    design = read_design_file(args.design)[0]
     label = design_label(args.design)
     config = run_config(args)
-    results = Path(args.results) if args.results else default_results_path(label, args.seed)
+    results = Path(args.results) if args.results else default_results_path(label, args.seed, controller_label(args))
     backend = backend_from_args(args)
     bar = Progress(label, args.no_progress)
     try:
@@ -87,7 +88,7 @@ def run_cqi(args) -> int:
 
 def run_snapshots(args) -> int:
     from ..errors import UserError
-    from ..core.design import load_design
+    from .common import read_design_file
     from ..core.episode import run_episode
     from ..core.scenario import scenario_for
     from ..figures.snapshots import plot_snapshots
@@ -96,7 +97,7 @@ def run_snapshots(args) -> int:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
     if not args.state_rate > 0:
         raise UserError(f"--state-rate {args.state_rate}: must be > 0 Hz")
-    design = load_design(args.design)
+    design = read_design_file(args.design)[0]
     label = design_label(args.design)
     over = {"state_rate": args.state_rate}
     if args.settle_time is not None:

@@ -4,8 +4,14 @@ The bag's EpisodeSetup, LaunchCommand and ClosingCommand rebuild the episode's s
 (:class:`~tethernet_ros.monitoring.StateMirror`); every recorded NetState is loaded into it
 and the core's CQI function, locked-pair count and verdict rules are applied.  The
 results are compared with the recorded CaptureMetrics, the simulation's EpisodeResult and
-the monitor's verdict.  Messages of the types replay does not use (markers, target
-poses, /clock) are skipped and counted per topic.  A truncated or corrupted bag is read up
+the monitor's verdict.  A lockstep episode's loop is replayed too: the core's Sensor,
+seeded as the sensor node's, turns every recorded true measurement into the sensed one,
+which must be the recorded one bit for bit; the built-in policy (``Policy``) decides on
+every recorded sensed measurement as the actuator did, and must give the recorded
+decisions (a user's controller's are counted, not recomputed); and the episode's closing
+time must be the step of the first decision to close.  Messages of the types replay does
+not use (markers, target poses, /clock, the sensed state in standard messages) are
+skipped and counted per topic.  A truncated or corrupted bag is read up
 to the damage and the damage is reported; exit status 1 then, or on any disagreement; 0 when everything
 matches.  No ROS installation is needed (mcap + mcap-ros2-support decode the bag).
 """
@@ -25,9 +31,11 @@ CLOSING = "tethernet_msgs/msg/ClosingCommand"
 STATE = "tethernet_msgs/msg/NetState"
 METRICS = "tethernet_msgs/msg/CaptureMetrics"
 RESULT = "tethernet_msgs/msg/EpisodeResult"
-#: the types replay reads; the messages of every other type (markers, poses, /clock) are
-#: skipped and counted per topic
-USED = {SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT}
+MEASUREMENT = "tethernet_msgs/msg/Measurement"
+DECISION = "tethernet_msgs/msg/ClosingDecision"
+#: the types replay reads; the messages of every other type (markers, poses, /clock, the
+#: sensed state in standard messages) are skipped and counted per topic
+USED = {SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT, MEASUREMENT, DECISION}
 
 
 def add_arguments(p):
@@ -71,6 +79,9 @@ def replay(path) -> dict:
                 if m.msgtype == msgtype and m.msg is not None and (topic is None or m.topic == topic)]
 
     setups, launches, closings = decoded(SETUP), decoded(LAUNCH), decoded(CLOSING)
+    truths = decoded(MEASUREMENT, TOPICS["true_measurement"])
+    sensed = decoded(MEASUREMENT, TOPICS["measurement"])
+    decisions = decoded(DECISION)
     states = sorted(decoded(STATE), key=lambda m: m.step)
     metrics = decoded(METRICS)
     results = [m for m in contents.messages if m.msgtype == RESULT and m.msg is not None]
@@ -79,6 +90,7 @@ def replay(path) -> dict:
     report.update(states=len(states), metrics_recorded=len(metrics))
     recomputed = None
     mirror = None
+    setup = actions = world = None
     if not setups or not launches or not closings:
         missing = [n for n, v in (("EpisodeSetup", setups), ("LaunchCommand", launches),
                                   ("ClosingCommand", closings)) if not v]
@@ -126,6 +138,12 @@ def replay(path) -> dict:
         if compared and (max_diff != 0.0 or n_l_mismatch):
             problems.append(f"recorded metrics differ from the recomputed ones (max |dCQI| = "
                             f"{max_diff:.3g}, {n_l_mismatch} n_L mismatches)")
+    if truths or sensed or decisions:
+        try:
+            report["loop"] = _replay_loop(setup, actions, world, truths, sensed, decisions,
+                                          sim_results[-1] if sim_results else None, problems)
+        except Exception as exc:  # noqa: BLE001 - a bag's content is reported, not raised
+            problems.append(f"cannot replay the closing loop: {exc}")
     report["recomputed"] = _result_dict(recomputed)
     report["recorded_result"] = _result_dict(sim_results[-1]) if sim_results else None
     report["recorded_verdict"] = _result_dict(verdicts[-1]) if verdicts else None
@@ -142,6 +160,71 @@ def replay(path) -> dict:
     report["ok"] = (not problems and recomputed is not None
                     and report.get("matches_result") is True)
     return report
+
+
+def _replay_loop(setup, actions, world, truths, sensed, decisions, result, problems) -> dict:
+    """Replay a lockstep episode's loop (module docstring); problems are appended."""
+    from ..ros import conversions as conv
+    from ..ros.loop import episode_policy, episode_scenario, episode_sensor, \
+        is_builtin_controller
+
+    def by_step(msgs):
+        out = {}
+        for m in msgs:
+            out.setdefault(int(m.step), m)
+        return out
+
+    truth_at, sensed_at, decided_at = by_step(truths), by_step(sensed), by_step(decisions)
+    controllers = sorted({d.controller for d in decisions})
+    loop = {"true_measurements": len(truths), "measurements": len(sensed),
+            "decisions": len(decisions), "controllers": controllers,
+            "sensed_recomputed": 0, "sensed_mismatches": 0,
+            "decisions_recomputed": 0, "decision_mismatches": 0, "closing_step": None}
+    closes = sorted(step for step, d in decided_at.items() if d.close)
+    if closes:
+        loop["closing_step"] = closes[0]
+    if setup is None or actions is None:
+        return loop
+    scenario = episode_scenario(setup, actions, world)
+    sensor = episode_sensor(setup, scenario)
+    builtin = bool(decisions) and all(is_builtin_controller(c) for c in controllers)
+    policy = episode_policy(setup, scenario) if builtin else None
+    first_bad = None
+
+    def same(a, b) -> bool:
+        return (a is None and b is None) or (a is not None and b is not None
+                                             and a.tobytes() == b.tobytes())
+
+    for step in sorted(truth_at):
+        mine = sensor.measure(conv.measurement_from_msg(truth_at[step]), step)
+        rec = sensed_at.get(step)
+        if rec is None:
+            continue
+        loop["sensed_recomputed"] += 1
+        recorded = conv.measurement_from_msg(rec)
+        if not same(mine, recorded):
+            loop["sensed_mismatches"] += 1
+            first_bad = step if first_bad is None else first_bad
+        if policy is not None and step in decided_at:
+            close = recorded is not None and policy.decide(recorded)
+            loop["decisions_recomputed"] += 1
+            if close != bool(decided_at[step].close):
+                loop["decision_mismatches"] += 1
+    if loop["sensed_mismatches"]:
+        problems.append(f"{loop['sensed_mismatches']} recorded sensed measurements differ from "
+                        f"the sensor's replay (first at step {first_bad})")
+    if loop["decision_mismatches"]:
+        problems.append(f"{loop['decision_mismatches']} recorded decisions differ from the "
+                        "built-in policy's replay")
+    if len(decided_at) < len(truth_at) and not (result is not None and result.failure_reason):
+        problems.append(f"{len(truth_at) - len(decided_at)} control steps have no recorded "
+                        "decision")
+    if result is not None and closes:
+        ct = result.closing_time
+        if ct >= 0 and ct != closes[0] * scenario.dt:
+            problems.append(f"the closing time {ct} s is not the first decision to close "
+                            f"(step {closes[0]}, t = {closes[0] * scenario.dt} s)")
+    return loop
 
 
 def _fmt_result(r) -> str:
@@ -186,6 +269,15 @@ def run(args) -> int:
         lines.append(f"  metrics           {report['metrics_compared']} compared, max |dCQI| = "
                      f"{report['metrics_max_cqi_diff']:.3g}, n_L mismatches "
                      f"{report['metrics_locked_pair_mismatches']}")
+    loop = report.get("loop")
+    if loop:
+        lines.append(f"  closing loop      {loop['true_measurements']} true and "
+                     f"{loop['measurements']} sensed measurements, {loop['decisions']} decisions "
+                     f"({', '.join(loop['controllers']) or 'none'}); first to close at step "
+                     f"{loop['closing_step']}")
+        lines.append(f"                    sensor replayed on {loop['sensed_recomputed']}: "
+                     f"{loop['sensed_mismatches']} mismatches; policy replayed on "
+                     f"{loop['decisions_recomputed']}: {loop['decision_mismatches']} mismatches")
     lines.append(f"  recomputed        {_fmt_result(report['recomputed'])}")
     for key, label in (("result", "recorded result"), ("verdict", "monitor verdict")):
         m = report[f"matches_{key}"]

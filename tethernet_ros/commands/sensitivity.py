@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from ..core.noise import NOISE_SOURCES
-from .common import noise_model_from_args, print_json
+from .common import controller_label, noise_model_from_args, print_json
 from .validate import (Progress, add_run_arguments, backend_from_args, check_run_arguments,
                        default_results_path, design_label, run_config)
 
@@ -72,14 +72,14 @@ def _source(t: str) -> str:
 
 
 def run(args) -> int:
-    from ..core.design import load_design
+    from .common import read_design_file
     from ..figures.sensitivity import plot_sensitivity
     from ..montecarlo import RunSpec, evaluate_many
 
     check_run_arguments(args)
     scales = parse_list(args.scales, "scales", _scale)
     sources = parse_list(args.sources, "sources", _source)
-    design = load_design(args.design)
+    design = read_design_file(args.design)[0]
     label = design_label(args.design)
     base = noise_model_from_args(args)
     config = run_config(args)
@@ -87,7 +87,7 @@ def run(args) -> int:
     specs = [RunSpec(design, base.with_scales(**{src: s}), config, f"{label} {src}x{s:g}")
              for src, s in points]
     results_path = Path(args.results) if args.results else \
-        default_results_path(label, args.seed, "_sensitivity")
+        default_results_path(label, args.seed, "_sensitivity" + controller_label(args))
     backend = backend_from_args(args)
     bar = Progress(f"{label} sensitivity", args.no_progress)
     t0 = time.perf_counter()

@@ -15,8 +15,9 @@ from pathlib import Path
 
 from ..core.design import REFERENCE_DESIGNS
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
-                     backend_from_args, check_backend_arguments, config_from_args,
-                     noise_model_from_args, print_json)
+                     add_ros_arguments, backend_from_args, check_backend_arguments,
+                     check_ros_arguments, config_from_args, controller_config,
+                     controller_label, noise_model_from_args, print_json, read_design_file)
 
 NAME = "validate"
 HELP = "Monte Carlo validation of a design: P*_s with a 95 % interval, mean T, failures"
@@ -40,6 +41,7 @@ def add_run_arguments(p, default_samples: int) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="BASE",
                    help="base seed: sample i uses noise seed BASE*1000003+i (default 0)")
     add_backend_arguments(p)
+    add_ros_arguments(p)
     p.add_argument("--results", default=None, metavar="FILE.jsonl",
                    help="per-sample results file to append to and resume from "
                         "(default out/montecarlo/<design>_seed<BASE>.jsonl)")
@@ -61,6 +63,7 @@ def check_run_arguments(args) -> None:
     if args.seed < 0:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
     check_backend_arguments(args)
+    check_ros_arguments(args)
 
 
 def run_config(args, **extra):
@@ -69,7 +72,7 @@ def run_config(args, **extra):
         over["settle_time"] = args.settle_time
     if args.horizon is not None:
         over["horizon"] = args.horizon
-    return config_from_args(args, **over)
+    return controller_config(args, config_from_args(args, **over))
 
 
 def design_label(name_or_path: str) -> str:
@@ -107,7 +110,6 @@ class Progress:
 
 
 def run(args) -> int:
-    from ..core.design import load_design
     from ..montecarlo import RunSpec, evaluate_many
     from ..montecarlo.results_file import ResultsFile
 
@@ -118,13 +120,14 @@ def run(args) -> int:
         labels = list(REFERENCE_DESIGNS)
         designs = [REFERENCE_DESIGNS[k] for k in labels]
     else:
-        designs = [load_design(args.design)]
+        designs = [read_design_file(args.design)[0]]
         labels = [design_label(args.design)]
     specs = [RunSpec(d, model, config, lab) for d, lab in zip(designs, labels)]
     if args.results:
         paths = {lab: Path(args.results) for lab in labels}
     else:
-        paths = {lab: default_results_path(lab, args.seed) for lab in labels}
+        paths = {lab: default_results_path(lab, args.seed, controller_label(args))
+                 for lab in labels}
 
     backend = backend_from_args(args)
     results = []

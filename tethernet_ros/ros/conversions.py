@@ -23,8 +23,10 @@ import numpy as np
 from ..core.config import SimConfig
 from ..core.design import Design, DesignError
 from ..core.episode import EpisodeResult
-from ..core.noise import NOISE_SOURCES, NoiseError, NoiseModel
+from ..core.noise import NOISE_SOURCES, SPREAD_FIELDS, NoiseError, NoiseModel, NoiseSample
 from ..core.scenario import Actions, World
+from ..core.sensing import C_NET, C_OMEGA, C_QUAT, C_TGT, C_VEL, N_CHANNELS, SensingConfig
+from ..core.tumble import TumbleConfig, TumbleError
 from .names import SUCCEEDED
 from .state import Setup, StateArrays
 
@@ -112,7 +114,7 @@ def noise_settings_from_msg(settings, prefix: str = "noise") -> tuple[dict[str, 
     RequestError names the field if a factor is not in [0, 100] or the axis not z / y."""
     scales = {}
     for source, name in NOISE_FIELDS.items():
-        v = float(getattr(settings, name))
+        v = float(getattr(settings, name, 1.0))      # (a bag from before the source: 1.0)
         if not math.isfinite(v) or not 0.0 <= v <= 100.0:
             raise RequestError(f"{prefix}.{name}", f"got {v}; must be a finite factor in [0, 100]")
         scales[source] = v
@@ -133,6 +135,47 @@ def noise_model_from_msg(settings, spreads: dict | None = None,
         raise RequestError(prefix, str(exc)) from None
 
 
+# --- tumble -------------------------------------------------------------------------------
+def tumble_msg(tumble: TumbleConfig):
+    """Tumble message of a TumbleConfig (a vector axis in ``axis_vector``, ``axis`` '')."""
+    from tethernet_msgs.msg import Tumble
+
+    m = Tumble()
+    m.rate_deg_s = float(tumble.rate_deg_s)
+    m.phase_deg = float(tumble.phase_deg)
+    if isinstance(tumble.axis, str):
+        m.axis = tumble.axis
+    else:
+        m.axis = ""
+        m.axis_vector = [float(c) for c in tumble.axis]
+    return m
+
+
+def tumble_from_msg(m, prefix: str = "tumble") -> TumbleConfig:
+    """TumbleConfig of a Tumble message; RequestError names ``tumble.<field>`` and its range."""
+    axis = m.axis if m.axis else tuple(float(c) for c in m.axis_vector)
+    try:
+        return TumbleConfig(rate_deg_s=float(m.rate_deg_s), axis=axis,
+                            phase_deg=float(m.phase_deg))
+    except TumbleError as exc:
+        text = str(exc)
+        field = text.split("'")[1] if text.startswith("tumble field '") else "tumble"
+        if field == "axis" and not m.axis:
+            field = "axis_vector"
+        detail = text.split(": ", 1)[1] if ": " in text else text
+        if field == "axis":
+            detail = detail.replace("or a vector [x, y, z]", "or '' with axis_vector")
+        raise RequestError(f"{prefix}.{field}", detail) from None
+
+
+def config_with_tumble(config: SimConfig, request) -> SimConfig:
+    """The episode's SimConfig: ``config`` with the request's tumble where it sets one
+    (``set_tumble``); RequestError names a bad tumble field."""
+    if not getattr(request, "set_tumble", False):
+        return config
+    return config.replace(tumble=tumble_from_msg(request.tumble))
+
+
 # --- episode setup ----------------------------------------------------------------------
 def config_overrides(config: SimConfig) -> dict:
     """The SimConfig fields that differ from the defaults (field -> value)."""
@@ -148,9 +191,11 @@ def config_from_json(text: str, field: str = "sim_config_json") -> SimConfig:
 
 
 def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseModel | None,
-              config: SimConfig, wall_time: float, nominal: bool | None = None):
+              config: SimConfig, wall_time: float, nominal: bool | None = None,
+              lockstep: bool = False):
     """EpisodeSetup of one episode, stamped with ``wall_time`` (s).  nominal: no noise
-    (default: when ``seed`` is None); a nominal setup still carries the request's seed."""
+    (default: when ``seed`` is None); a nominal setup still carries the request's seed;
+    lockstep: the closing policy runs through ROS (docs/ros.md)."""
     from tethernet_msgs.msg import EpisodeSetup
 
     m = EpisodeSetup()
@@ -162,6 +207,7 @@ def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseMod
     m.seed = 0 if seed is None else int(seed)
     m.noise = noise_settings_msg(noise)
     m.sim_config_json = json.dumps(config_overrides(config), sort_keys=True)
+    m.lockstep = bool(lockstep)
     return m
 
 
@@ -172,14 +218,59 @@ def setup_from_msg(m) -> Setup:
                  seed=None if nominal else int(m.seed), noise_scales=scales,
                  orientation_axis=axis, config=config_from_json(m.sim_config_json),
                  stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)),
-                 request_seed=int(m.seed))
+                 request_seed=int(m.seed), lockstep=bool(getattr(m, "lockstep", False)))
 
 
 # --- actuator commands --------------------------------------------------------------------
+def noise_sample_msg(sample: NoiseSample | None, model: NoiseModel | None):
+    """NoiseSample message of a draw and the model it was drawn with (None, None: nominal;
+    the spreads are then the core's defaults, every scale 1.0)."""
+    from tethernet_msgs.msg import NoiseSample as NoiseSampleMsg
+
+    m = NoiseSampleMsg()
+    m.nominal = sample is None or sample.is_nominal
+    model = NoiseModel() if model is None else model
+    if sample is not None and not sample.is_nominal:
+        m.seed = int(sample.seed)
+        for name in ("distance_offset", "orientation_angle", "closing_offset",
+                     "spin_rate_offset", "spin_axis_tilt", "spin_axis_azimuth", "spin_phase",
+                     "spin_transverse_angle"):
+            setattr(m, name, float(getattr(sample, name)))
+        for name in ("speed_offsets", "polar_angles", "azimuth_angles"):
+            setattr(m, name, [float(v) for v in getattr(sample, name)])
+        m.orientation_axis = sample.orientation_axis
+    else:
+        m.orientation_axis = model.orientation_axis
+    for name, value in model.spreads().items():
+        setattr(m, name, float(value))
+    m.scales = noise_settings_msg(model)
+    return m
+
+
+def noise_sample_from_msg(m) -> tuple[NoiseSample, dict[str, float]]:
+    """(the core's NoiseSample, the spreads by NoiseModel field) of a NoiseSample message."""
+    if m.nominal:
+        sample = NoiseSample.nominal(m.orientation_axis or "z")
+    else:
+        sample = NoiseSample(
+            seed=int(m.seed), distance_offset=float(m.distance_offset),
+            orientation_angle=float(m.orientation_angle),
+            speed_offsets=tuple(float(v) for v in m.speed_offsets),
+            polar_angles=tuple(float(v) for v in m.polar_angles),
+            azimuth_angles=tuple(float(v) for v in m.azimuth_angles),
+            closing_offset=float(m.closing_offset), orientation_axis=m.orientation_axis or "z",
+            spin_rate_offset=float(m.spin_rate_offset), spin_axis_tilt=float(m.spin_axis_tilt),
+            spin_axis_azimuth=float(m.spin_axis_azimuth), spin_phase=float(m.spin_phase),
+            spin_transverse_angle=float(m.spin_transverse_angle))
+    return sample, {k: float(getattr(m, k)) for k in SPREAD_FIELDS}
+
+
 def launch_command_msg(actions: Actions, world: World, seed: int | None, key: tuple[int, int],
-                       frame_id: str = "chaser"):
-    """LaunchCommand: noisy corner velocities and the target placement the actuator drew.
-    Its header stamp is the EpisodeSetup's stamp (the episode's correlation key)."""
+                       frame_id: str = "chaser", sample: NoiseSample | None = None,
+                       model: NoiseModel | None = None):
+    """LaunchCommand: noisy corner velocities and the target placement and tumble the
+    actuator drew, with the draw itself (``sample`` of ``model``; None: nominal).  Its
+    header stamp is the EpisodeSetup's stamp (the episode's correlation key)."""
     from tethernet_msgs.msg import LaunchCommand
 
     m = LaunchCommand()
@@ -191,6 +282,10 @@ def launch_command_msg(actions: Actions, world: World, seed: int | None, key: tu
     m.distance_to_target = float(world.distance)
     m.target_rotation = float(world.rotation)
     m.rotation_axis = world.rotation_axis
+    m.spin_rate = float(world.spin_rate)
+    m.spin_axis = [float(c) for c in world.spin_axis]
+    m.spin_phase = float(world.spin_phase)
+    m.noise = noise_sample_msg(sample, model)
     return m
 
 
@@ -209,8 +304,13 @@ def commands_from_msgs(launch, closing) -> tuple[Actions, World]:
     """The core's Actions and World of a LaunchCommand and a ClosingCommand."""
     cv = np.array(np.asarray(launch.corner_velocities, dtype=float)).reshape(4, 3)
     actions = Actions(corner_velocities=cv, closing_displacement=float(closing.closing_displacement))
+    spin = {}
+    rate = float(getattr(launch, "spin_rate", 0.0))       # (a bag from before the tumble: 0)
+    if rate != 0.0:
+        spin = dict(spin_rate=rate, spin_axis=tuple(float(c) for c in launch.spin_axis),
+                    spin_phase=float(launch.spin_phase))
     world = World(distance=float(launch.distance_to_target), rotation=float(launch.target_rotation),
-                  rotation_axis=launch.rotation_axis or "z")
+                  rotation_axis=launch.rotation_axis or "z", **spin)
     return actions, world
 
 
@@ -281,6 +381,105 @@ def clock_msg(t: float):
     m = Clock()
     set_time(m.clock, t)
     return m
+
+
+# --- the closed loop: measurements and decisions --------------------------------------------
+def measurement_msg(values, step: int, sim_time: float, episode_id: str,
+                    closing_displacement: float, frame_id: str = "chaser"):
+    """Measurement of a core measurement vector (``core.sensing``, N_CHANNELS; None: none
+    has reached the controller yet, ``valid`` false), taken at ``step`` (sim time s)."""
+    from tethernet_msgs.msg import Measurement
+
+    m = Measurement()
+    set_time(m.header.stamp, sim_time)
+    m.header.frame_id = frame_id
+    m.episode_id = episode_id
+    m.step = int(step)
+    m.closing_displacement = float(closing_displacement)
+    m.valid = values is not None
+    if values is None:
+        m.target_orientation.w = 0.0
+        return m
+    v = [float(x) for x in values]
+    m.net_point.x, m.net_point.y, m.net_point.z = v[C_NET:C_NET + 3]
+    m.target_position.x, m.target_position.y, m.target_position.z = v[C_TGT:C_TGT + 3]
+    q = m.target_orientation
+    q.w, q.x, q.y, q.z = v[C_QUAT:C_QUAT + 4]
+    w = m.target_angular_velocity
+    w.x, w.y, w.z = v[C_OMEGA:C_OMEGA + 3]
+    u = m.target_velocity
+    u.x, u.y, u.z = v[C_VEL:C_VEL + 3]
+    return m
+
+
+def measurement_from_msg(m) -> np.ndarray | None:
+    """The core's measurement vector (N_CHANNELS,) of a Measurement (None if not valid);
+    the same bits as were sent."""
+    if not m.valid:
+        return None
+    out = np.empty(N_CHANNELS)
+    p, t, q = m.net_point, m.target_position, m.target_orientation
+    w, u = m.target_angular_velocity, m.target_velocity
+    out[C_NET:C_NET + 3] = (p.x, p.y, p.z)
+    out[C_TGT:C_TGT + 3] = (t.x, t.y, t.z)
+    out[C_QUAT:C_QUAT + 4] = (q.w, q.x, q.y, q.z)
+    out[C_OMEGA:C_OMEGA + 3] = (w.x, w.y, w.z)
+    out[C_VEL:C_VEL + 3] = (u.x, u.y, u.z)
+    return out
+
+
+def decision_msg(measurement, close: bool, controller: str):
+    """ClosingDecision answering a Measurement (same stamp, episode and step)."""
+    from tethernet_msgs.msg import ClosingDecision
+
+    m = ClosingDecision()
+    m.header = measurement.header
+    m.episode_id = measurement.episode_id
+    m.step = measurement.step
+    m.close = bool(close)
+    m.controller = controller
+    return m
+
+
+def _diagonal(variances: list[float]) -> list[float]:
+    n = len(variances)
+    out = [0.0] * (n * n)
+    for i, v in enumerate(variances):
+        out[i * n + i] = float(v)
+    return out
+
+
+def sensed_msgs(values, sim_time: float, sensing: SensingConfig, frame_id: str = "chaser"):
+    """(PoseWithCovarianceStamped of the target, TwistWithCovarianceStamped of the target,
+    PointStamped of the net's reference point) of a sensed measurement vector.  The
+    covariances are the sensor's noise (``sensing.sigma_*``): position sigma_position^2
+    per axis (0 for a 'planned' target position, which is no measurement), attitude
+    sigma_attitude^2 (rad^2) per axis of the small rotation, velocity sigma_velocity^2 and
+    angular velocity sigma_rate^2 ((rad/s)^2) per axis; no correlations."""
+    from geometry_msgs.msg import PointStamped, PoseWithCovarianceStamped, \
+        TwistWithCovarianceStamped
+
+    deg = math.pi / 180.0
+    v = [float(x) for x in values]
+    pose = PoseWithCovarianceStamped()
+    twist = TwistWithCovarianceStamped()
+    point = PointStamped()
+    for m in (pose, twist, point):
+        set_time(m.header.stamp, sim_time)
+        m.header.frame_id = frame_id
+    p, q = pose.pose.pose.position, pose.pose.pose.orientation
+    p.x, p.y, p.z = v[C_TGT:C_TGT + 3]
+    q.w, q.x, q.y, q.z = v[C_QUAT:C_QUAT + 4]
+    sp = sensing.sigma_position ** 2 if sensing.target_position == "sensed" else 0.0
+    sa = (sensing.sigma_attitude_deg * deg) ** 2
+    pose.pose.covariance = _diagonal([sp, sp, sp, sa, sa, sa])
+    lin, ang = twist.twist.twist.linear, twist.twist.twist.angular
+    lin.x, lin.y, lin.z = v[C_VEL:C_VEL + 3]
+    ang.x, ang.y, ang.z = v[C_OMEGA:C_OMEGA + 3]
+    sv, sr = sensing.sigma_velocity ** 2, (sensing.sigma_rate_deg_s * deg) ** 2
+    twist.twist.covariance = _diagonal([sv, sv, sv, sr, sr, sr])
+    point.point.x, point.point.y, point.point.z = v[C_NET:C_NET + 3]
+    return pose, twist, point
 
 
 # --- metrics and results ------------------------------------------------------------------

@@ -18,8 +18,11 @@ class MarkerBuilder:
     closing_ring            LINE_LIST of the 12 drawstring pairs, green when locked
     corner_masses           SPHERE_LIST
     main_tether             LINE_STRIP, net centre -> winch
-    target                  CYLINDER (the stage's long axis is its body x)
+    target                  CYLINDER at the target's pose (its attitude: the stage's long
+                            axis is its body x), so it turns as the target tumbles
     chaser                  CUBE behind the launch point
+    target_spin             ARROW from the target's centre along its angular velocity
+                            (right-hand rule), L/2 + 2 m long; no length at rest
 
     Topology is taken once from the Scenario; positions on every call."""
 
@@ -43,6 +46,7 @@ class MarkerBuilder:
         self.winch = s.tether.winch
         tc = s.config.target
         self.target_scale = (tc.diameter, tc.diameter, tc.length)
+        self.spin_arrow = tc.length / 2 + 2.0
         self.chaser_side = s.config.chaser_side
 
     @staticmethod
@@ -94,6 +98,13 @@ class MarkerBuilder:
         # the winch sits at the launch point on the cube's +z face
         cx, cy, cz = (float(v) for v in x[self.winch])
         mk.pose.position.x, mk.pose.position.y, mk.pose.position.z = cx, cy, cz - self.chaser_side / 2
+        mk = marker("target_spin", 8, Marker.ARROW, (1.0, 0.5, 0.0, 1.0), (0.15, 0.35, 0.5))
+        centre = np.asarray(state.target_position, dtype=float)
+        omega = np.asarray(state.target_omega, dtype=float)
+        rate = float(np.sqrt(omega @ omega))
+        tip = centre + omega * (self.spin_arrow / rate) if rate > 0 and math.isfinite(rate) \
+            else centre
+        mk.points = self._points(np.array([centre, tip]))
         return out
 
 

@@ -2,8 +2,8 @@
 capture node requires of the graph before an episode.  No ROS import."""
 from __future__ import annotations
 
-#: the four node executables (console scripts, ``ros2 run tethernet_ros <node>``)
-NODES = ("sim_node", "monitor_node", "actuator_node", "capture_node")
+#: the node executables of the suite (console scripts, ``ros2 run tethernet_ros <node>``)
+NODES = ("sim_node", "monitor_node", "actuator_node", "sensor_node", "capture_node")
 #: the capture node's second node (its bag recorder) is named after it, with this suffix
 RECORDER_SUFFIX = "_recorder"
 
@@ -27,6 +27,13 @@ TOPICS: dict[str, str] = {
     "verdict": "/tethernet/monitor_verdict",
     "clock": "/clock",
     "cancel": "/tethernet/cancel_episode",
+    # the closed loop through ROS (lockstep episodes; docs/ros.md, the controller contract)
+    "true_measurement": "/tethernet/true_measurement",
+    "measurement": "/tethernet/measurement",
+    "closing_decision": "/tethernet/closing_decision",
+    "sensed_target_pose": "/tethernet/sensed/target_pose",
+    "sensed_target_twist": "/tethernet/sensed/target_twist",
+    "sensed_net_point": "/tethernet/sensed/net_point",
 }
 
 #: message type of every topic (ROS 2 type names)
@@ -42,6 +49,12 @@ TOPIC_TYPES: dict[str, str] = {
     "verdict": "tethernet_msgs/msg/EpisodeResult",
     "clock": "rosgraph_msgs/msg/Clock",
     "cancel": "std_msgs/msg/String",       # the episode id: the simulation stops it
+    "true_measurement": "tethernet_msgs/msg/Measurement",     # sim_node -> sensor_node
+    "measurement": "tethernet_msgs/msg/Measurement",          # sensor_node -> controller
+    "closing_decision": "tethernet_msgs/msg/ClosingDecision", # controller -> sim_node
+    "sensed_target_pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "sensed_target_twist": "geometry_msgs/msg/TwistWithCovarianceStamped",
+    "sensed_net_point": "geometry_msgs/msg/PointStamped",
 }
 
 SERVICE = "/tethernet/run_capture"
@@ -63,10 +76,28 @@ REQUIRED_SUBSCRIBERS = {"setup": 4, "launch_command": 3, "closing_command": 3, "
 #: topics that need a publisher before an episode starts
 REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metrics", "result",
                        "verdict")
-#: topics every bag holds, whatever ``record_topics`` says (replay needs them)
+#: what a lockstep episode (the closing policy run through ROS) requires besides: the sensor
+#: node and the recorder on the truth, a controller (the actuator's built-in policy or a
+#: user's node) and the recorder on the sensed measurement, the simulation and the
+#: recorder on the decisions
+LOCKSTEP_SUBSCRIBERS = {"true_measurement": 2, "measurement": 2, "closing_decision": 2}
+LOCKSTEP_PUBLISHERS = ("true_measurement", "measurement", "closing_decision")
+#: topics every bag holds, whatever ``record_topics`` says (replay needs them; the loop's
+#: topics are silent unless an episode runs in lockstep)
 ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",
-                   "result", "verdict")
+                   "result", "verdict", "true_measurement", "measurement", "closing_decision")
 #: latched topics (transient-local, depth 1, qos.latched_qos): a late subscriber gets the last
 LATCHED = ("result", "verdict")
-#: recorded topics whose messages carry the simulated time of a state (header stamp)
+#: recorded topics whose messages carry the simulated time of a state (header stamp) and go
+#: on to the episode's last state (the loop's topics stop when closing starts)
 STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")
+
+#: the start of the failure reason of an episode whose controller did not answer a
+#: measurement in time (sim_node's ``decision_timeout``): the capture node answers ABORTED
+#: with it at once, and the ROS Monte Carlo backend counts the sample as failed
+CONTROLLER_TIMEOUT = "controller did not answer"
+
+
+def is_controller_timeout(reason: str) -> bool:
+    """Whether a failure reason says that the episode's controller did not answer."""
+    return reason.startswith(CONTROLLER_TIMEOUT)

@@ -142,9 +142,11 @@ def _shared() -> dict[str, Param]:
 
 def _capture_topics() -> list[str]:
     """The topics recorded by default: all but /clock and the target pose (the states
-    carry both)."""
+    carry both); the loop's topics of lockstep episodes (names.ALWAYS_RECORDED adds the
+    measurements and decisions) and the sensed state in standard messages among them."""
     return ["setup", "launch_command", "closing_command", "net_state", "markers", "metrics",
-            "result", "verdict"]
+            "result", "verdict", "sensed_target_pose", "sensed_target_twist",
+            "sensed_net_point"]
 
 
 #: every node's parameters (nested names use '.')
@@ -165,6 +167,10 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                                         "for before the first step", 0, 100),
         "match_timeout": number(5.0, "wait at most this long for those subscribers (s, "
                                 "wall)", 0.0, 3600.0, "s"),
+        "decision_timeout": number(5.0, "lockstep episodes: wait at most this long for the "
+                                   "controller's ClosingDecision of a control step (s, wall); "
+                                   "then the episode ends, failed (keep it below the capture "
+                                   "node's stall_timeout)", 0.01, 3600.0, "s"),
         "warm_up": Param(True, "load the numba kernels at start-up, not in the first episode",
                          read_only=True),
     },
@@ -186,10 +192,29 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                                           "launch tilt's azimuth (deg)"),
         "noise.sigma_closing": spread("sigma_closing", "d_rnd: standard deviation of the "
                                       "closing displacement (m)"),
+        "noise.sigma_spin_rate": spread("sigma_spin_rate", "standard deviation of the "
+                                        "target's spin rate, relative to it (-)"),
+        "noise.sigma_spin_axis_deg": spread("sigma_spin_axis_deg", "standard deviation of the "
+                                            "tilt of the target's spin axis (deg)"),
+        "noise.spin_phase_range_deg": spread("spin_phase_range_deg", "the initial spin "
+                                             "phase's range: U(0, range) (deg)"),
+        "builtin_policy": Param(True, "answer lockstep episodes' measurements with the "
+                                "closing policy of the episode's configuration (threshold or "
+                                "adaptive); false: leave the decisions to another node (a "
+                                "user's controller, docs/ros.md)", read_only=True),
         "min_command_subscribers": number(3, "command subscribers (sim + monitor + recorder) "
-                                          "to wait for before sending", 0, 100),
+                                          "to wait for before sending (and every other one "
+                                          "the graph shows)", 0, 100),
         "match_timeout": number(5.0, "wait at most this long for those subscribers (s, "
                                 "wall)", 0.0, 3600.0, "s"),
+        "frame_id": FRAME,
+    },
+    "sensor_node": {
+        "queue_depth": number(1000, "reliable keep-last depth of the measurement topics", 1,
+                              100000, read_only=True),
+        "match_timeout": number(5.0, "wait at most this long for the controller to match "
+                                "before an episode's first measurement (s, wall)", 0.0,
+                                3600.0, "s"),
         "frame_id": FRAME,
     },
     "capture_node": {
@@ -200,8 +225,14 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                                    "at which the settled CQI and n_L are read (s, sim)"),
         "horizon": from_config("horizon", "simulated time by which closing must trigger "
                                "(s, sim)"),
-        "sim_config": text("{}", "JSON object of further SimConfig fields (core/config.py)",
+        "sim_config": text("{}", "JSON object of further SimConfig fields (core/config.py; "
+                           "tumble, sensing and policy are objects of their fields)",
                            _json_object, "a JSON object of SimConfig fields"),
+        "lockstep": Param(False, "run each episode's closing policy through ROS: the "
+                          "simulation waits every control period for a ClosingDecision "
+                          "(sensor_node, then actuator_node's policy or a user's "
+                          "controller); false: inside the kernel (faster; the same result). "
+                          "A sim_config policy 'external' always runs so"),
         "start_timeout": number(60.0, "wait at most this long for the first state of an "
                                 "episode (s, wall)", 0.1, 86400.0, "s"),
         "stall_timeout": number(15.0, "an episode without a new state for this long is "

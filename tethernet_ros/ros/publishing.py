@@ -11,19 +11,21 @@ from __future__ import annotations
 import queue
 import threading
 
-from ..core.episode import CaptureSimulation
+from .loop import ControlledSimulation
 
 
 class EpisodeAborted(Exception):
     pass
 
 
-class PublishingSimulation(CaptureSimulation):
-    """CaptureSimulation that calls ``on_publish(self)`` at every multiple of ``every``
-    steps while advancing (splitting advance() there does not change the result)."""
+class PublishingSimulation(ControlledSimulation):
+    """A simulation that calls ``on_publish(self)`` at every multiple of ``every`` steps
+    while advancing (splitting advance() there does not change the result), after the
+    closing decision of that step if a ``controller`` decides outside the kernel
+    (:class:`~.loop.ControlledSimulation`, a lockstep episode)."""
 
-    def __init__(self, scenario, every: int, on_publish, should_stop):
-        super().__init__(scenario)
+    def __init__(self, scenario, every: int, on_publish, should_stop, controller=None):
+        super().__init__(scenario, controller)
         self.every = max(1, int(every))
         self.on_publish = on_publish
         self.should_stop = should_stop

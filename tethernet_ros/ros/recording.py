@@ -14,7 +14,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from .names import STAMPED
+from .names import STAMPED, is_controller_timeout
 
 
 def cdr_stamp(key: str, data: bytes) -> tuple[int, int] | None:
@@ -80,8 +80,10 @@ class Episode:
                 msg = deserialize_message(data, EpisodeResult)
                 if msg.episode_id == self.episode_id:
                     setattr(self, key, msg)
-                    if self.result is not None and self.verdict is not None:
-                        self.ended.set()
+                    if self.result is not None and (
+                            self.verdict is not None
+                            or is_controller_timeout(self.result.failure_reason)):
+                        self.ended.set()      # (no verdict comes for a controller's failure)
 
     def behind(self) -> list[str]:
         """Stamped topics heard in this episode that have not reached the result's stamp

@@ -16,7 +16,9 @@ class Setup:
     """An EpisodeSetup in core terms.  seed None: nominal (no noise); noise_scales: scale
     factor per noise source (None when nominal); stamp: (sec, nanosec) of the setup's
     header, the key that ties the actuator's commands to it; request_seed: the seed the
-    request gave, which results report (also when nominal, where no noise is drawn)."""
+    request gave, which results report (also when nominal, where no noise is drawn);
+    lockstep: the capture node asked for the closing policy to run through ROS (see
+    :func:`..loop.runs_in_lockstep`, which also says so for the policy 'external')."""
 
     episode_id: str
     design: Design
@@ -26,6 +28,7 @@ class Setup:
     config: SimConfig
     stamp: tuple[int, int]
     request_seed: int = 0
+    lockstep: bool = False
 
     def noise_model(self, spreads: dict | None = None) -> NoiseModel | None:
         """The episode's NoiseModel with the given spreads (None when nominal)."""

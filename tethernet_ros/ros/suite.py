@@ -1,20 +1,24 @@
 """Run captures through the ROS 2 node suite, with the nodes as separate processes.
 
-:class:`RosSuite` starts ``sim_node``, ``monitor_node``, ``actuator_node`` and
-``capture_node`` (``python -m tethernet_ros.ros.nodes.<name>``), talks to the RunCapture
-service from a client node in this process, and stops the nodes (SIGINT, then SIGTERM,
-then SIGKILL).  :func:`capture_via_ros` is one capture on a fresh suite; it is what
-``tethernet capture --via ros`` calls.
+:class:`RosSuite` starts ``sim_node``, ``monitor_node``, ``actuator_node``, ``sensor_node``
+and ``capture_node`` (``python -m tethernet_ros.ros.nodes.<name>``), and a user's
+controller if asked (``controller``: a console script, or ``module:Class`` of a Node run
+by :mod:`.controller_host`; the actuator's built-in policy is then off and every episode
+runs in lockstep), talks to the RunCapture service from a client node in this process, and
+stops the nodes (SIGINT, then SIGTERM, then SIGKILL).  :func:`capture_via_ros` is one
+capture on a fresh suite; it is what ``tethernet capture --via ros`` calls.
 
 Processes get ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST unless the environment sets it, and
-ROS_DOMAIN_ID from the environment, or else a private domain derived from this process id
-so that simultaneous runs do not hear each other.  Node output goes to log files in
-``log_dir`` (a temporary folder unless given); errors quote the last lines.
+the suite's ``domain_id``, else ROS_DOMAIN_ID from the environment, or else a private
+domain derived from this process id so that simultaneous runs do not hear each other
+(suites side by side take domains of their own: backend.py).  Node output goes to log
+files in ``log_dir`` (a temporary folder unless given); errors quote the last lines.
 """
 from __future__ import annotations
 
 import math
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -28,8 +32,11 @@ from ..core.episode import EpisodeResult, EpisodeTrace
 from ..core.noise import NoiseModel
 from ..errors import UserError
 from . import conversions as conv
-from .names import NODES, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
-    SERVICE, STATUS_NAMES, SUCCEEDED, TOPICS
+from .names import LOCKSTEP_PUBLISHERS, LOCKSTEP_SUBSCRIBERS, NODES, READY_SERVICE, REJECTED, \
+    REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, SERVICE, STATUS_NAMES, SUCCEEDED, TOPICS
+
+#: the process name (and log file) of a user's controller
+CONTROLLER = "controller"
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[2]
 
@@ -48,18 +55,29 @@ def default_params_file() -> Path | None:
     return None
 
 
-def suite_environment(env: dict | None = None) -> dict:
+def default_domain() -> int:
+    """ROS_DOMAIN_ID of the environment, or else one of this process's own (1..100)."""
+    value = os.environ.get("ROS_DOMAIN_ID", "")
+    return int(value) if value.strip().isdigit() else 1 + os.getpid() % 100
+
+
+def suite_environment(env: dict | None = None, domain_id: int | None = None) -> dict:
     env = dict(os.environ if env is None else env)
     env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    env.setdefault("ROS_DOMAIN_ID", str(1 + os.getpid() % 100))
+    if domain_id is not None:
+        env["ROS_DOMAIN_ID"] = str(int(domain_id))
+    env.setdefault("ROS_DOMAIN_ID", str(default_domain()))
     env.setdefault("PYTHONUNBUFFERED", "1")
     env.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
     return env
 
 
 def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: str | Path,
-                    extra: dict | None = None) -> dict:
-    """ROS parameters (per node) that carry a SimConfig and a noise model's spreads."""
+                    extra: dict | None = None, lockstep: bool = False,
+                    controller: str | None = None) -> dict:
+    """ROS parameters (per node) that carry a SimConfig and a noise model's spreads;
+    ``lockstep``: the closing policy through ROS; ``controller``: a user's node decides
+    (the actuator's built-in policy off, lockstep)."""
     import json
 
     rest = {k: v for k, v in conv.config_overrides(config).items()
@@ -71,13 +89,32 @@ def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: 
         "actuator_node": {},
         "sim_node": {},
         "monitor_node": {},
+        "sensor_node": {},
     }
+    if lockstep or controller:
+        params["capture_node"]["lockstep"] = True
+    if controller:
+        params["actuator_node"]["builtin_policy"] = False
     if noise_model is not None:
         params["actuator_node"].update(
             {f"noise.{k}": float(v) for k, v in noise_model.spreads().items()})
     for node, values in (extra or {}).items():
         params.setdefault(node, {}).update(values)
     return params
+
+
+def controller_command(spec: str) -> list[str]:
+    """The command line of a user's controller: ``module:Class`` (a Node class, run by
+    controller_host) or the name or path of an executable (a console script: this
+    environment's bin/ first, then PATH).  Raises RosCaptureError if there is none."""
+    if ":" in spec and os.path.sep not in spec:
+        return [sys.executable, "-m", "tethernet_ros.ros.controller_host", spec]
+    path = shutil.which(spec, path=os.pathsep.join([str(Path(sys.executable).parent),
+                                                    os.environ.get("PATH", "")]))
+    if path is None:
+        raise RosCaptureError(f"controller {spec!r}: no such executable (a console script, "
+                              "a path, or module:Class of a Node)")
+    return [path]
 
 
 def _signal_text(code: int) -> str:
@@ -90,17 +127,24 @@ def _signal_text(code: int) -> str:
 
 
 class RosSuite:
-    """The four nodes as processes plus a client in this process.
+    """The suite's nodes as processes plus a client in this process.
 
     config: SimConfig of the episodes (carried by capture_node parameters); noise_model:
     its spreads become actuator_node parameters (scales travel with each request);
-    params: extra parameters per node, e.g. ``{"sim_node": {"publish_rate": 50.0}}``.
+    params: extra parameters per node, e.g. ``{"sim_node": {"publish_rate": 50.0}}``;
+    lockstep: run the closing policy through ROS (sensor_node, actuator_node) every control
+    period; controller: a user's controller replaces the actuator's built-in policy
+    (:func:`controller_command`; implies lockstep); domain_id: the suite's ROS domain.
     """
 
     def __init__(self, config: SimConfig | None = None, noise_model: NoiseModel | None = None,
                  params: dict | None = None, bag_dir: str | Path = "bags",
-                 log_dir: str | Path | None = None, env: dict | None = None):
+                 log_dir: str | Path | None = None, env: dict | None = None,
+                 lockstep: bool = False, controller: str | None = None,
+                 domain_id: int | None = None):
         self.config = config or SimConfig()
+        self.controller = controller
+        self.lockstep = bool(lockstep or controller) or self.config.policy.kind == "external"
         self.noise_model = noise_model
         self.bag_dir = Path(bag_dir)
         self._tmp = None
@@ -109,8 +153,9 @@ class RosSuite:
             log_dir = self._tmp.name
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
-        self.params = node_parameters(self.config, noise_model, self.bag_dir, params)
-        self.env = suite_environment(env)
+        self.params = node_parameters(self.config, noise_model, self.bag_dir, params,
+                                      lockstep=lockstep, controller=controller)
+        self.env = suite_environment(env, domain_id)
         self.procs: dict[str, subprocess.Popen] = {}
         self._logs = {}
         self._context = None
@@ -148,6 +193,17 @@ class RosSuite:
             self.procs[name] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
                                                 stdin=subprocess.DEVNULL, env=self.env,
                                                 start_new_session=True)
+        if self.controller:
+            try:
+                cmd = controller_command(self.controller)
+            except RosCaptureError:
+                self.stop()
+                raise
+            log = open(self.log_dir / f"{CONTROLLER}.log", "wb")
+            self._logs[CONTROLLER] = log
+            self.procs[CONTROLLER] = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
+                                                      stdin=subprocess.DEVNULL, env=self.env,
+                                                      start_new_session=True)
         try:
             self._start_client()
             deadline = time.monotonic() + timeout
@@ -199,7 +255,8 @@ class RosSuite:
 
         self._context = rclpy.Context()
         self._context.init(domain_id=int(self.env["ROS_DOMAIN_ID"]))
-        self._node = rclpy.create_node(f"tethernet_client_{os.getpid()}", context=self._context)
+        self._node = rclpy.create_node(f"tethernet_client_{os.getpid()}_{self.env['ROS_DOMAIN_ID']}",
+                                       context=self._context)
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self._node)
         self._client = self._node.create_client(RunCapture, SERVICE)
@@ -209,10 +266,14 @@ class RosSuite:
     def missing(self) -> str:
         """'' if every suite topic has its subscribers and publishers in the graph."""
         out = []
-        for key, n in REQUIRED_SUBSCRIBERS.items():
+        subscribers, publishers = dict(REQUIRED_SUBSCRIBERS), list(REQUIRED_PUBLISHERS)
+        if self.lockstep:
+            subscribers.update(LOCKSTEP_SUBSCRIBERS)
+            publishers += LOCKSTEP_PUBLISHERS
+        for key, n in subscribers.items():
             if self._node.count_subscribers(TOPICS[key]) < n:
                 out.append(f"{TOPICS[key]} lacks subscribers")
-        for key in REQUIRED_PUBLISHERS:
+        for key in publishers:
             if self._node.count_publishers(TOPICS[key]) < 1:
                 out.append(f"no publisher on {TOPICS[key]}")
         return "; ".join(out)
@@ -277,7 +338,9 @@ class RosSuite:
 
     # -- requests ------------------------------------------------------------------------
     def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
-                record_bag: bool = True, bag_name: str | None = None):
+                record_bag: bool = True, bag_name: str | None = None, tumble=None):
+        """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
+        episode (None: the suite's configuration's)."""
         from tethernet_msgs.srv import RunCapture
 
         req = RunCapture.Request()
@@ -287,7 +350,30 @@ class RosSuite:
         req.noise = conv.noise_settings_msg(noise_model or self.noise_model)
         req.record_bag = bool(record_bag)
         req.bag_name = bag_name or ""
+        if tumble is not None:
+            req.set_tumble = True
+            req.tumble = conv.tumble_msg(tumble)
         return req
+
+    def set_parameters(self, node: str, values: dict, timeout: float = 10.0) -> list[str]:
+        """Set parameters of one of the suite's nodes (as ``ros2 param set`` does; they
+        take effect at its next episode); the reasons of those refused ('' if set)."""
+        from rcl_interfaces.srv import SetParameters
+        from rclpy.parameter import Parameter
+
+        client = self._node.create_client(SetParameters, f"/{node}/set_parameters")
+        try:
+            if not client.wait_for_service(timeout_sec=timeout):
+                raise RosCaptureError(f"{node}: no set_parameters service within {timeout:g} s")
+            request = SetParameters.Request(
+                parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()])
+            future = client.call_async(request)
+            if not self.spin_until(future.done, timeout):
+                client.remove_pending_request(future)
+                raise RosCaptureError(f"{node}: set_parameters did not answer within {timeout:g} s")
+            return [r.reason if not r.successful else "" for r in future.result().results]
+        finally:
+            self._node.destroy_client(client)
 
     def spin_until(self, predicate, timeout: float) -> bool:
         """Spin the client until ``predicate()`` is true (or timeout s); returns it."""
@@ -329,8 +415,9 @@ class RosSuite:
 
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,
-                timeout: float = 900.0) -> tuple[EpisodeResult, str | None]:
-        resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name), timeout)
+                timeout: float = 900.0, tumble=None) -> tuple[EpisodeResult, str | None]:
+        resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble),
+                         timeout)
         if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.status != SUCCEEDED:
@@ -359,16 +446,19 @@ class RosSuite:
 def capture_via_ros(design: Design, seed: int | None = None, noise_model: NoiseModel | None = None,
                     config: SimConfig | None = None, record_bag: bool = True,
                     bag_name: str | None = None, timeout: float = 900.0,
-                    bag_dir: str | Path = "bags", params: dict | None = None
+                    bag_dir: str | Path = "bags", params: dict | None = None,
+                    lockstep: bool = False, controller: str | None = None
                     ) -> tuple[EpisodeResult, str | None]:
-    """One capture through a fresh node suite (nodes as processes).
+    """One capture through a fresh node suite (nodes as processes); ``lockstep`` and
+    ``controller`` as :class:`RosSuite` has them.
 
     Returns (result, bag path or None).  The result's ``trace`` holds the monitor's
     CaptureMetrics series; ``steps`` (-1) and ``max_penetration`` (NaN) are not carried
     by the messages.  Raises RosCaptureError (one line) if a node dies, the service
     refuses the request, or the episode times out.
     """
-    suite = RosSuite(config=config, noise_model=noise_model, bag_dir=bag_dir, params=params)
+    suite = RosSuite(config=config, noise_model=noise_model, bag_dir=bag_dir, params=params,
+                     lockstep=lockstep, controller=controller)
     with suite:
         return suite.capture(design, seed, noise_model, record_bag=record_bag,
                              bag_name=bag_name, timeout=timeout)

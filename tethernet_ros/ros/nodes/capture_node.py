@@ -12,15 +12,17 @@ Subscribes  every suite topic, serialized (raw CDR), and writes it to the episod
 One request or goal = one episode (one at a time; others wait their turn):
   1. validate the request (design, noise settings, bag name); an invalid one ends with
      status REJECTED and an error naming the field, and the node keeps serving;
-  2. check that the simulation, monitor and actuator nodes are up (graph matching);
-     REJECTED if not;
+  2. check that the simulation, monitor and actuator nodes are up (graph matching), and
+     for a lockstep episode the sensor node and a controller; REJECTED if not;
   3. open the bag (``<bag_dir>/<name>.partial`` with an INCOMPLETE marker, bags/naming.py),
      publish the EpisodeSetup, and record everything until the simulation's EpisodeResult
      and the monitor's verdict have arrived and every stamped topic has reached the
      result's stamp (recording.py); a simulation that stops publishing states for
      ``stall_timeout`` s (or never starts within ``start_timeout`` s) ends the episode
-     ABORTED with a one-line error, and the bag stays marked incomplete; a canceled goal
-     ends CANCELED (the simulation is told to stop, the bag stays marked incomplete);
+     ABORTED with a one-line error, and the bag stays marked incomplete; so does a
+     lockstep episode whose controller did not answer (the simulation's result says so,
+     names.CONTROLLER_TIMEOUT); a canceled goal ends CANCELED (the simulation is told to
+     stop, the bag stays marked incomplete);
   4. close the bag (metadata.yaml, rename to ``<bag_dir>/<name>``), check that the
      monitor's verdict equals the simulation's result exactly (ABORTED if not), and
      answer SUCCEEDED with the result and the bag path.
@@ -42,9 +44,10 @@ from ...bags import BagError, BagWriter, message_definition, qos_profile
 from ...bags.naming import capture_name, check_name, taken
 from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
-from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, READY_SERVICE, REJECTED, \
-    REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, \
-    recorder_name
+from ..loop import EXTERNAL
+from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, LOCKSTEP_PUBLISHERS, \
+    LOCKSTEP_SUBSCRIBERS, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
+    STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, is_controller_timeout, recorder_name
 from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
     topic
 from ..qos import LATCHED_DEPTH, command_qos, state_qos
@@ -56,7 +59,9 @@ NODE = "capture_node"
 #: depth of the recorder's subscriptions (and of the QoS the bag says they were offered)
 STATE_DEPTH = 1000
 #: topics recorded with the states' QoS (the rest: the commands' QoS)
-STATE_TOPICS = ("net_state", "target_pose", "markers", "metrics", "clock")
+STATE_TOPICS = ("net_state", "target_pose", "markers", "metrics", "clock", "true_measurement",
+                "measurement", "closing_decision", "sensed_target_pose",
+                "sensed_target_twist", "sensed_net_point")
 SHUTDOWN = "the capture node shut down during the episode (SIGINT or SIGTERM)"
 CANCELED_TEXT = "canceled by the client"
 #: s (wall) between two feedback messages of a goal
@@ -130,7 +135,7 @@ class CaptureNode(Node):
                                f"{Path(param(self, 'bag_dir')).resolve()}")
 
     def on_ready(self, request, response):
-        missing = self.missing_nodes(0.0)
+        missing = self.missing_nodes(0.0, lockstep=bool(param(self, "lockstep")))
         response.success = not missing
         response.message = missing or "ready"
         return response
@@ -169,6 +174,8 @@ class CaptureNode(Node):
         """(design, noise model or None) of a request; RequestError names a bad field."""
         design = conv.design_from_msg(request.design)
         noise = None if request.nominal else conv.noise_model_from_msg(request.noise)
+        if getattr(request, "set_tumble", False):
+            conv.tumble_from_msg(request.tumble)
         name = request.bag_name
         if name:
             try:
@@ -232,10 +239,12 @@ class CaptureNode(Node):
         except conv.RequestError as exc:
             return conv.Outcome(REJECTED, str(exc))
         try:
-            config = self.sim_config()
+            config = conv.config_with_tumble(self.sim_config(), request)
         except (ConfigError, ValueError) as exc:
             return conv.Outcome(REJECTED, f"capture node configuration: {exc}")
-        missing = self.missing_nodes(float(param(self, "ready_timeout")))
+        lockstep = bool(param(self, "lockstep"))
+        missing = self.missing_nodes(float(param(self, "ready_timeout")),
+                                     lockstep=lockstep or config.policy.kind == EXTERNAL)
         if missing:
             return conv.Outcome(REJECTED, f"suite not ready: {missing}")
         seed = None if request.nominal else int(request.seed)
@@ -251,7 +260,8 @@ class CaptureNode(Node):
         log.info(f"episode {episode_id!r}: {'nominal' if seed is None else f'seed {seed}'}")
         try:
             self.pub_setup.publish(conv.setup_msg(episode_id, design, int(request.seed), noise,
-                                                  config, time.time(), nominal=request.nominal))
+                                                  config, time.time(), nominal=request.nominal,
+                                                  lockstep=lockstep))
             error = self.wait_for_end(ep, feedback, canceled)
         except Exception as exc:  # noqa: BLE001 - reported in the answer
             error = f"{type(exc).__name__}: {exc}"
@@ -304,6 +314,8 @@ class CaptureNode(Node):
                         f"{stall_to:g} s after {ep.n_states} states (sim_node died or hung)")
             if now - ep.started > total_to:
                 return f"timed out: the episode took longer than episode_timeout = {total_to:g} s"
+        if ep.result is not None and is_controller_timeout(ep.result.failure_reason):
+            return ep.result.failure_reason          # a lockstep episode's controller failed
         # the last state's markers, pose, clock and metrics may still be on their way
         drain = float(param(self, "drain_time"))
         limit = max(10 * drain, 2.0)
@@ -327,24 +339,33 @@ class CaptureNode(Node):
             feedback(None if data is None else conv.metrics_from_cdr(data), ep.n_states)
         return ""
 
-    def missing_nodes(self, timeout: float) -> str:
-        """'' when every topic of the suite has its subscribers and publishers, else what
-        is missing (after waiting up to ``timeout`` s)."""
+    def missing_nodes(self, timeout: float, lockstep: bool = False) -> str:
+        """'' when every topic of the suite has its subscribers and publishers (with
+        ``lockstep``, also the loop's: the sensor node and a controller), else what is
+        missing (after waiting up to ``timeout`` s)."""
         deadline = time.monotonic() + timeout
+        subscribers = dict(REQUIRED_SUBSCRIBERS)
+        publishers = list(REQUIRED_PUBLISHERS)
+        if lockstep:
+            subscribers.update(LOCKSTEP_SUBSCRIBERS)
+            publishers += LOCKSTEP_PUBLISHERS
         while True:
             missing = []
-            for key, n in REQUIRED_SUBSCRIBERS.items():
+            for key, n in subscribers.items():
                 have = (self.pub_setup.get_subscription_count() if key == "setup"
                         else self.count_subscribers(self.topic_names[key]))
                 if have < n:
                     missing.append(f"{self.topic_names[key]} has {have} of {n} subscribers")
-            for key in REQUIRED_PUBLISHERS:
+            for key in publishers:
                 if self.count_publishers(self.topic_names[key]) < 1:
                     missing.append(f"no publisher on {self.topic_names[key]}")
             if not missing:
                 return ""
             if time.monotonic() > deadline or not self.context.ok():
-                return "; ".join(missing) + " (start sim_node, monitor_node and actuator_node)"
+                return "; ".join(missing) + (" (start sim_node, monitor_node, actuator_node"
+                                             + (", sensor_node and a controller (actuator_node"
+                                                " with builtin_policy, or yours))"
+                                                if lockstep else ")"))
             time.sleep(0.05)
 
     def close(self) -> None:

@@ -1,18 +1,28 @@
 """Simulation node: owns the scenario and the numba kernel of one episode at a time.
 
 Subscribes  EpisodeSetup (design, seed, configuration), LaunchCommand and ClosingCommand
-            (the actuator's noisy actions and target placement; matched to the setup by
-            header stamp), and the cancel topic (std_msgs/String: the id of an episode to
-            stop, sent when a Capture goal is canceled).
+            (the actuator's noisy actions, target placement and tumble; matched to the
+            setup by header stamp), the cancel topic (std_msgs/String: the id of an
+            episode to stop, sent when a Capture goal is canceled), and in lockstep
+            episodes the controller's ClosingDecision.
 Publishes   NetState, target PoseStamped and /clock every ``publish_rate`` Hz of simulated
             time, a MarkerArray every ``marker_rate`` Hz, and at the end the simulation's
-            EpisodeResult (latched: transient-local, depth 1).
+            EpisodeResult (latched: transient-local, depth 1); in lockstep episodes also
+            /clock and the true Measurement at every control step.
 
 The episode is run by the core's ``run_simulation`` on a CaptureSimulation whose
 ``advance`` publishes at the publish steps on the way; ``advance`` is chunking-invariant,
 so the states and the result are bit for bit those of ``tethernet capture --via library``.
-The closing trigger is evaluated inside the kernel from the ClosingCommand's threshold,
-which arrives before the first step, so nothing depends on message timing.
+By default the closing policy runs inside the kernel from the ClosingCommand's threshold,
+which arrives before the first step, so nothing depends on message timing.  In a lockstep
+episode (:func:`..loop.runs_in_lockstep`) the kernel's policy is 'external' and
+``advance`` also stops at every control step: it publishes /clock and the true
+measurement and waits (``decision_timeout`` s at most) for the ClosingDecision of that
+step, from the controller behind the sensor node, before it goes on; a decision to close
+is commanded at that step, as the kernel's own policy would start it
+(:class:`..loop.ControlledSimulation`).  A controller that does not answer in time ends the
+episode with a result whose failure reason starts with names.CONTROLLER_TIMEOUT (the
+capture node answers ABORTED with it), and the node serves the next episode.
 
 The episode thread only copies the state at a publish step; the outbox thread
 (:mod:`..publishing`) builds and publishes the messages in order; the result is published
@@ -28,10 +38,11 @@ import time
 
 from rclpy.node import Node
 
-from ...core.episode import CaptureSimulation, run_simulation
-from ...core.scenario import build_scenario
+from ...core.episode import CaptureSimulation, episode_result, run_simulation
 from .. import conversions as conv
+from ..loop import ControllerTimeout, episode_scenario, kernel_config, runs_in_lockstep, truth_of
 from ..markers import MarkerBuilder
+from ..names import CONTROLLER_TIMEOUT
 from ..parameters import declare, param, topic
 from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
 from ..qos import command_qos, latched_qos, state_qos
@@ -43,8 +54,8 @@ NODE = "sim_node"
 
 class SimNode(Node):
     def __init__(self):
-        from tethernet_msgs.msg import ClosingCommand, EpisodeResult, EpisodeSetup, \
-            LaunchCommand, NetState
+        from tethernet_msgs.msg import ClosingCommand, ClosingDecision, EpisodeResult, \
+            EpisodeSetup, LaunchCommand, Measurement, NetState
         from geometry_msgs.msg import PoseStamped
         from rosgraph_msgs.msg import Clock
         from std_msgs.msg import String
@@ -70,7 +81,12 @@ class SimNode(Node):
         self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
         self.pub_markers = node.create_publisher(MarkerArray, t("markers"), sq)
         self.pub_result = node.create_publisher(EpisodeResult, t("result"), latched_qos())
+        self.pub_truth = node.create_publisher(Measurement, t("true_measurement"), sq)
         self._lock = threading.Lock()
+        # the decision a lockstep episode waits for: (episode id, step), and its answer
+        self._awaiting: tuple[str, int] | None = None
+        self._answer = None
+        self._answered = threading.Event()
         self._setup = None
         self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
@@ -81,6 +97,8 @@ class SimNode(Node):
         node.create_subscription(LaunchCommand, t("launch_command"), self.on_launch, cq)
         node.create_subscription(ClosingCommand, t("closing_command"), self.on_closing, cq)
         node.create_subscription(String, t("cancel"), self.on_cancel, cq)
+        self.sub_decision = node.create_subscription(ClosingDecision, t("closing_decision"),
+                                                     self.on_decision, sq)
         node.get_logger().info("ready")
 
     # -- parameters read at each episode (they may be changed between episodes) ----------
@@ -93,7 +111,9 @@ class SimNode(Node):
         from ...core.design import REFERENCE_DESIGNS
         from ...core.scenario import scenario_for
 
-        CaptureSimulation(scenario_for(REFERENCE_DESIGNS["baseline"])).advance(1)
+        sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["baseline"]))
+        sim.advance(1)
+        truth_of(sim)                        # (the lockstep episodes' true measurement)
 
     # -- callbacks ---------------------------------------------------------------------
     def on_setup(self, msg) -> None:
@@ -130,6 +150,13 @@ class SimNode(Node):
                 self.node.get_logger().info(f"episode {msg.data!r}: canceled")
                 self._running[1].set()
 
+    def on_decision(self, msg) -> None:
+        """The controller's ClosingDecision: the answer if it is the one awaited."""
+        with self._lock:
+            if self._awaiting == (msg.episode_id, int(msg.step)) and not self._answered.is_set():
+                self._answer = msg
+                self._answered.set()
+
     def _maybe_start(self) -> None:
         with self._lock:
             if self._setup is None or self._running is not None:
@@ -157,9 +184,11 @@ class SimNode(Node):
     # -- the episode -------------------------------------------------------------------
     def _run_episode(self, setup, launch, closing, stop: threading.Event) -> None:
         log = self.node.get_logger()
+        lockstep = runs_in_lockstep(setup)
         try:
             actions, world = conv.commands_from_msgs(launch, closing)
-            scenario = build_scenario(setup.design, actions, world, setup.config)
+            config = kernel_config(setup.config) if lockstep else setup.config
+            scenario = episode_scenario(setup, actions, world, config)
         except Exception as exc:  # noqa: BLE001
             log.error(f"episode {setup.episode_id!r}: cannot build the scenario: {exc}")
             return
@@ -174,11 +203,17 @@ class SimNode(Node):
         marker_step = [-1]
         frame = self.frame_id
         outbox = self._outbox
+        clock_step = [-1]                               # the last step on /clock
+
+        def publish_clock(step, sim_time):             # runs in the outbox thread
+            if step > clock_step[0]:
+                clock_step[0] = step
+                self.pub_clock.publish(conv.clock_msg(sim_time))
 
         def publish_states(state, with_markers):       # runs in the outbox thread
             if self.stopping() or stop.is_set():
                 return
-            self.pub_clock.publish(conv.clock_msg(state.sim_time))
+            publish_clock(state.step, state.sim_time)
             self.pub_state.publish(conv.net_state_msg(state, frame))
             self.pub_pose.publish(conv.target_pose_msg(state, frame))
             if with_markers:
@@ -200,24 +235,38 @@ class SimNode(Node):
             state = state_arrays(sim)
             outbox.put(lambda: self.stopping() or self.pub_markers.publish(markers.build(state)))
 
-        sim = PublishingSimulation(scenario, every, publish,
-                                   lambda: stop.is_set() or self.stopping())
+        should_stop = lambda: stop.is_set() or self.stopping()  # noqa: E731
+        controller = None
+        if lockstep:
+            controller = self._exchange(setup.episode_id, scenario.close_threshold,
+                                        float(self._p("decision_timeout")), should_stop,
+                                        publish_clock)
+        sim = PublishingSimulation(scenario, every, publish, should_stop, controller)
         n_subs = int(self._p("min_state_subscribers"))
         timeout = float(self._p("match_timeout"))
         if not wait_for_subscribers(self.pub_state, n_subs, timeout, self.context):
             log.warning(f"starting with {self.pub_state.get_subscription_count()} state "
                         f"subscriber(s) (expected {n_subs})")
-        # the other state topics: wait until every subscriber the graph shows (the recorder,
-        # a viewer) is matched, so that none misses the first states
-        for pub in (self.pub_pose, self.pub_clock, self.pub_markers):
+        # the other topics: wait until every subscriber the graph shows (the recorder, a
+        # viewer, the sensor node) is matched, so that none misses the first messages
+        pubs = [self.pub_pose, self.pub_clock, self.pub_markers]
+        if lockstep:
+            pubs.append(self.pub_truth)
+            self._wait_for_controller(timeout)
+        for pub in pubs:
             want = self.node.count_subscribers(pub.topic_name)
             if want and not wait_for_subscribers(pub, want, timeout, self.context):
                 log.warning(f"{pub.topic_name}: {pub.get_subscription_count()} of {want} "
                             "subscribers matched at the start")
-        log.info(f"episode {setup.episode_id!r}: dt = {dt:.3e} s, publishing every {every} steps")
+        log.info(f"episode {setup.episode_id!r}: dt = {dt:.3e} s, publishing every {every} steps"
+                 + (f", closing decided through ROS every {sim.period} steps" if lockstep else ""))
         try:
             sim.publish()                                   # the initial state
-            result = run_simulation(sim, record_trace=False)
+            try:
+                result = run_simulation(sim, record_trace=False)
+            except ControllerTimeout as exc:
+                result = episode_result(sim, str(exc))
+                log.error(f"episode {setup.episode_id!r}: {exc}")
             sim.publish()                                   # the final state (if not yet)
             if marker_every and marker_step[0] != sim.step:
                 publish_markers(sim)                        # ... and its markers
@@ -233,9 +282,54 @@ class SimNode(Node):
             if not self.stopping():
                 log.error(f"episode {setup.episode_id!r} failed at t = {sim.time:.3f} s: {exc}")
             return
+        finally:
+            with self._lock:
+                self._awaiting = None
         verdict = "success" if result.success else f"failure ({result.failure_reason})"
         log.info(f"episode {setup.episode_id!r} done: {verdict}, T = {result.completion_time:.3f} s, "
                  f"wall {result.wall_time:.2f} s")
+
+    def _exchange(self, episode_id: str, closing_displacement: float, timeout: float,
+                  should_stop, publish_clock):
+        """The controller of a lockstep episode's simulation: at a control step, publish
+        /clock and the true measurement (through the outbox, after the states before it)
+        and wait for the ClosingDecision of that step; its ``close``."""
+        frame = self.frame_id
+        topic_name = self.sub_decision.topic_name
+
+        def exchange(sim) -> bool:
+            step, sim_time = sim.step, sim.time
+            msg = conv.measurement_msg(truth_of(sim), step, sim_time, episode_id,
+                                       closing_displacement, frame)
+            with self._lock:
+                self._awaiting = (episode_id, step)
+                self._answer = None
+                self._answered.clear()
+
+            def send():
+                publish_clock(step, sim_time)
+                self.pub_truth.publish(msg)
+
+            self._outbox.put(send)
+            deadline = time.monotonic() + timeout
+            while not self._answered.wait(0.05):
+                if should_stop():
+                    raise EpisodeAborted()
+                if time.monotonic() > deadline:
+                    raise ControllerTimeout(
+                        f"{CONTROLLER_TIMEOUT} within {timeout:g} s: no ClosingDecision on "
+                        f"{topic_name} for step {step} (t = {sim_time:.3f} s; is sensor_node "
+                        "running, and a controller: actuator_node's built-in policy or yours?)")
+            return bool(self._answer.close)
+
+        return exchange
+
+    def _wait_for_controller(self, timeout: float) -> None:
+        """Wait (``timeout`` s at most) until the decision topic has a publisher matched."""
+        deadline = time.monotonic() + timeout
+        while self.sub_decision.get_publisher_count() < 1 and time.monotonic() < deadline \
+                and self.context.ok():
+            time.sleep(0.01)
 
     def stopping(self) -> bool:
         """True once the node is closing or its context shut down (SIGINT, SIGTERM)."""

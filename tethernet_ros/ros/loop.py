@@ -1,0 +1,124 @@
+"""The closing loop cut at its joints, as the nodes run it (no ROS import).
+
+In a *lockstep* episode the closing policy runs outside the kernel: the simulation's
+kernel has the policy 'external' (it never closes by itself), and at every control step
+(every ``model.control.period`` integration steps, while closing is armed and not yet
+active) the simulation node hands the true measurement to the sensor node, whose
+measurement goes to a controller (the actuator's built-in policy, or a user's node),
+whose decision comes back before the simulation advances; a decision to close is
+commanded (``CaptureSimulation.command_closing``) at that very step.  That is the
+kernel's own loop (``core/kernel/events.py``) step for step, with the same Sensor noise
+and the same Policy memory, so the result is the in-kernel closed loop's bit for bit
+(tests/test_core_sensing.py proves the loop in process, tests/test_ros_loop.py through
+the nodes).
+
+The episode's other rules are run_simulation's: a :class:`ControlledSimulation` only adds
+the control steps to its advance, so run_simulation stops at the same clock steps, tests
+for divergence and for the end there, and gives the result by the same rules.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+from ..core import kernel as kn
+from ..core.config import SimConfig
+from ..core.episode import CaptureSimulation
+from ..core.policies import Policy
+from ..core.scenario import Actions, Scenario, World, build_scenario
+from ..core.sensing import Sensor, seed_state, true_measurement
+from .state import Setup
+
+#: the policy kind that leaves every decision to a controller outside the kernel
+EXTERNAL = "external"
+
+
+def builtin_controller(node_name: str, kind: str) -> str:
+    """What the actuator's built-in policy writes in a ClosingDecision's ``controller``."""
+    return f"{node_name} (built-in {kind})"
+
+
+def is_builtin_controller(controller: str) -> bool:
+    """Whether a ClosingDecision's ``controller`` names the actuator's built-in policy."""
+    return "(built-in " in controller
+
+
+class ControllerTimeout(RuntimeError):
+    """No decision came for a control step in time (the message is the failure reason,
+    starting with names.CONTROLLER_TIMEOUT)."""
+
+
+def runs_in_lockstep(setup: Setup) -> bool:
+    """Whether an episode's closing policy runs through ROS: the capture node asked for it
+    (``lockstep``), or the configuration's policy is 'external' (a controller outside the
+    kernel decides, whatever was asked)."""
+    return bool(setup.lockstep) or setup.config.policy.kind == EXTERNAL
+
+
+def kernel_config(config: SimConfig) -> SimConfig:
+    """The simulation's configuration of a lockstep episode: the same, with the kernel's
+    policy 'external' (its own sensing and policy settings unchanged)."""
+    if config.policy.kind == EXTERNAL:
+        return config
+    return config.replace(policy=replace(config.policy, kind=EXTERNAL))
+
+
+def episode_scenario(setup: Setup, actions: Actions, world: World,
+                     config: SimConfig | None = None) -> Scenario:
+    """The episode's scenario from its setup and the actuator's commands, its sensor noise
+    seeded with the episode's seed as ``run_episode`` seeds it (0 when nominal)."""
+    sc = build_scenario(setup.design, actions, world, setup.config if config is None else config)
+    sc.sensor_seed = seed_state(setup.seed)
+    return sc
+
+
+def episode_sensor(setup: Setup, scenario: Scenario) -> Sensor:
+    """The episode's sensor outside the kernel (the sensor node's)."""
+    return Sensor(scenario.control, seed_state(setup.seed))
+
+
+def episode_policy(setup: Setup, scenario: Scenario) -> Policy | None:
+    """The episode's built-in policy outside the kernel (the actuator node's): the kind of
+    its configuration, for its commanded closing displacement; None for 'external' (no
+    built-in policy: a user's controller decides).  ``scenario`` must be built with the
+    episode's own configuration (not :func:`kernel_config`'s)."""
+    if setup.config.policy.kind == EXTERNAL:
+        return None
+    return Policy(scenario.kernel()[0], scenario.close_threshold)
+
+
+def control_step_due(sim: CaptureSimulation, period: int) -> bool:
+    """Whether the kernel would sense and decide after the current step: a control step
+    while closing is armed and not yet active (``closing_events``)."""
+    ev = sim.s.events
+    return (sim.step % period == 0 and ev[kn.E_CLOSING_ARMED] == 1
+            and ev[kn.E_CLOSING_ACTIVE] == 0)
+
+
+def truth_of(sim: CaptureSimulation):
+    """The true measurement of the simulation now (``core.sensing.true_measurement``)."""
+    return true_measurement(sim.model, sim.data, sim.s.lane)
+
+
+class ControlledSimulation(CaptureSimulation):
+    """A CaptureSimulation whose closing is decided outside the kernel (a lockstep
+    episode's; the kernel's policy 'external'): ``advance`` stops at every control step
+    where the kernel would decide (:func:`control_step_due`), asks ``controller(self)``,
+    and commands closing at that step if it says so.  ``run_simulation`` on it is the
+    in-kernel closed loop, bit for bit.  Without a controller it is a CaptureSimulation."""
+
+    def __init__(self, scenario: Scenario, controller=None):
+        super().__init__(scenario)
+        self.controller = controller
+        self.period = int(self.model.control.period)
+
+    def advance(self, n_steps: int) -> None:
+        if self.controller is None:
+            super().advance(n_steps)
+            return
+        target = self.step + n_steps
+        while self.step < target:
+            nxt = target if self.closing_active else \
+                min(target, (self.step // self.period + 1) * self.period)
+            super().advance(nxt - self.step)
+            if control_step_due(self, self.period) and self.controller(self):
+                self.command_closing()
