@@ -16,7 +16,8 @@
 Starts sim_node, monitor_node, actuator_node, sensor_node and capture_node with the
 parameters of config/tethernet.yaml (installed to share/tethernet_ros/config);
 ``lockstep`` sets the capture node's parameter of that name, ``builtin_policy`` the
-actuator node's (false implies lockstep: docs/ros.md, the controller contract).  ``name=`` reaches each
+actuator node's (false implies lockstep: docs/ros.md, the controller contract); both win
+over the parameter file's values.  ``name=`` reaches each
 process as ``-r __node:=<name>``, which renames every node in it: the capture node's
 recorder names itself ``<name>_recorder`` with a remap of its own, so names stay unique.
 Without a ROS install (PyPI wheels only) use `tethernet capture --via ros`, which starts
