@@ -8,7 +8,7 @@ from pathlib import Path
 from optimizer.jsonio import json_clean
 
 from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
-from ..core.noise import NOISE_SOURCES, NoiseModel
+from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseModel
 from ..core.policies import POLICIES
 from ..core.sensing import NET_POINTS
 from ..core.tumble import AXES, TRANSVERSE
@@ -67,7 +67,7 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise-scale", action="append", default=[], metavar="SOURCE=FACTOR",
                    help=f"multiply one noise source's spread; sources: {', '.join(NOISE_SOURCES)} "
                         "(repeatable)")
-    p.add_argument("--orientation-axis", choices=("z", "y"), default="z",
+    p.add_argument("--orientation-axis", choices=ORIENTATION_AXES, default="z",
                    help="axis of the target-orientation noise (default z, the line of sight)")
 
 
@@ -277,7 +277,8 @@ def noise_model_from_args(args) -> NoiseModel:
         try:
             scales[k.strip()] = float(v)
         except ValueError:
-            raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in [0, 100]") from None
+            raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in "
+                            f"[{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]") from None
     return NoiseModel(orientation_axis=args.orientation_axis, scales=scales)
 
 

@@ -11,11 +11,10 @@ resumes.
 from __future__ import annotations
 
 import csv
-import math
 import time
 from pathlib import Path
 
-from ..core.noise import NOISE_SOURCES
+from ..core.noise import NOISE_SOURCES, check_scale
 from .common import controller_label, noise_model_from_args, print_json
 from .validate import (Progress, add_run_arguments, backend_from_args, check_run_arguments,
                        default_results_path, design_label, run_config)
@@ -59,10 +58,7 @@ def parse_list(text: str, what: str, conv):
 
 
 def _scale(t: str) -> float:
-    v = float(t)
-    if not (math.isfinite(v) and 0 <= v <= 100):
-        raise ValueError("a scale factor must be a number in [0, 100]")
-    return v
+    return check_scale(float(t), "a scale factor")
 
 
 def _source(t: str) -> str:

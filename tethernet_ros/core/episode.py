@@ -211,6 +211,13 @@ def advance_kernel(cfg: SimConfig, model, data, scratch, n_steps: int) -> None:
         kn.advance_explicit(model, data, scratch, n_steps)
 
 
+def steps_every(rate_hz: float, dt: float) -> int:
+    """Steps between events at ``rate_hz`` (Hz) for a step of ``dt`` (s): the nearest whole
+    number, at least 1.  The one home of this conversion (metrics, traces, publishing,
+    markers, sensing)."""
+    return max(1, int(round(1.0 / (rate_hz * dt))))
+
+
 class EpisodeClock:
     """When an episode is looked at: the metric samples (every ``metric_every`` steps),
     the state samples (``state_every``, 0: none) and the checks for divergence and for its
@@ -218,9 +225,8 @@ class EpisodeClock:
     home of these rules for single episodes, batch lanes and the ROS simulation node."""
 
     def __init__(self, cfg: SimConfig, dt: float):
-        self.metric_every = int(round(1.0 / (cfg.metric_rate * dt)))
-        self.state_every = (max(1, int(round(1.0 / (cfg.state_rate * dt))))
-                            if cfg.state_rate > 0 else 0)
+        self.metric_every = steps_every(cfg.metric_rate, dt)
+        self.state_every = steps_every(cfg.state_rate, dt) if cfg.state_rate > 0 else 0
         self.chunk = (self.metric_every if not self.state_every
                       else math.gcd(self.metric_every, self.state_every))
 

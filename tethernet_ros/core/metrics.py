@@ -123,12 +123,18 @@ def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
     return (not reasons), "; ".join(reasons)
 
 
+#: the start of the failure reason of an episode whose closing controller, outside the
+#: kernel (policy 'external': a ROS node, a user's controller), did not answer in time
+CONTROLLER_TIMEOUT = "controller did not answer"
+
+
 def failure_category(reason: str, settled_cqi: float | None = None,
                      locked_pairs: int | None = None, closing_time: float | None = None,
                      max_cqi: float = 2.0, min_locked_pairs: int = 10) -> str:
     """Group a failed episode into a category for counting ('' when ``reason`` is empty).
 
-    Categories: 'worker error', 'diverged', 'closing never triggered', 'settled CQI > 2',
+    Categories: 'worker error', 'controller did not answer', 'diverged', 'closing never
+    triggered', 'settled CQI > 2',
     'locked pairs < 10', 'settled CQI > 2 and locked pairs < 10' (thresholds as given),
     'other'.  The numbers (settled CQI, n_L, closing time; NaN closing time = never
     triggered) decide where given, by the tests of :func:`capture_verdict`; otherwise the
@@ -139,6 +145,8 @@ def failure_category(reason: str, settled_cqi: float | None = None,
     r = reason.lower()
     if r.startswith("worker error"):
         return "worker error"
+    if reason.startswith(CONTROLLER_TIMEOUT):
+        return CONTROLLER_TIMEOUT
     if "diverged" in r:
         return "diverged"
     if closing_time is not None or settled_cqi is not None:

@@ -87,7 +87,8 @@ class SensingConfig:
 
     def period_steps(self, dt: float) -> int:
         """Steps between measurements (at least 1)."""
-        return 1 if self.rate_hz == 0 else max(1, int(round(1.0 / (self.rate_hz * dt))))
+        from .episode import steps_every
+        return 1 if self.rate_hz == 0 else steps_every(self.rate_hz, dt)
 
     def latency_steps(self, dt: float) -> int:
         return int(round(self.latency / dt))

@@ -41,14 +41,16 @@ import time
 from pathlib import Path
 
 from ..bags.naming import sample_name
+from ..core.metrics import failure_category
 from ..montecarlo import (EpisodeBackend, EpisodeTask, Outcome, SampleResult, error_text,
                           sample_result)
 from .conversions import episode_result_from_msg
-from .names import ABORTED, REJECTED, STATUS_NAMES, SUCCEEDED, is_controller_timeout
+from .names import (ABORTED, CONTROLLER_TIMEOUT, REJECTED, STATUS_NAMES, SUCCEEDED,
+                    is_controller_timeout)
 from .results import BagResultError, compare_results, result_from_bag
 
-#: the failure category of a sample whose controller did not answer
-CONTROLLER_FAILURE = "controller did not answer"
+#: the failure category of a sample whose controller did not answer (core.metrics)
+CONTROLLER_FAILURE = failure_category(CONTROLLER_TIMEOUT)
 #: the highest ROS domain id the suites may take (Fast DDS's ports: 7400 + 250 * domain)
 MAX_DOMAIN = 232
 

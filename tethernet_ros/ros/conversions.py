@@ -23,7 +23,8 @@ import numpy as np
 from ..core.config import SimConfig
 from ..core.design import Design, DesignError
 from ..core.episode import EpisodeResult
-from ..core.noise import NOISE_SOURCES, SPREAD_FIELDS, NoiseError, NoiseModel, NoiseSample
+from ..core.noise import (NOISE_SOURCES, SPREAD_FIELDS, NoiseError, NoiseModel, NoiseSample,
+                          check_orientation_axis, check_scale)
 from ..core.scenario import Actions, World
 from ..core.sensing import C_NET, C_OMEGA, C_QUAT, C_TGT, C_VEL, N_CHANNELS, SensingConfig
 from ..core.tumble import TumbleConfig, TumbleError
@@ -115,12 +116,15 @@ def noise_settings_from_msg(settings, prefix: str = "noise") -> tuple[dict[str, 
     scales = {}
     for source, name in NOISE_FIELDS.items():
         v = float(getattr(settings, name, 1.0))      # (a bag from before the source: 1.0)
-        if not math.isfinite(v) or not 0.0 <= v <= 100.0:
-            raise RequestError(f"{prefix}.{name}", f"got {v}; must be a finite factor in [0, 100]")
-        scales[source] = v
+        try:
+            scales[source] = check_scale(v, "a scale factor")
+        except NoiseError as exc:
+            raise RequestError(f"{prefix}.{name}", str(exc).split(": ", 1)[1]) from None
     axis = settings.orientation_axis or "z"
-    if axis not in ("z", "y"):
-        raise RequestError(f"{prefix}.orientation_axis", f"got {axis!r}; must be 'z' or 'y'")
+    try:
+        check_orientation_axis(axis, "the orientation axis")
+    except NoiseError as exc:
+        raise RequestError(f"{prefix}.orientation_axis", str(exc).split(": ", 1)[1]) from None
     return scales, axis
 
 

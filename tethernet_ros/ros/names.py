@@ -2,6 +2,8 @@
 capture node requires of the graph before an episode.  No ROS import."""
 from __future__ import annotations
 
+from ..core import metrics
+
 #: the node executables of the suite (console scripts, ``ros2 run tethernet_ros <node>``)
 NODES = ("sim_node", "monitor_node", "actuator_node", "sensor_node", "capture_node")
 #: the capture node's second node (its bag recorder) is named after it, with this suffix
@@ -95,7 +97,7 @@ STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")
 #: the start of the failure reason of an episode whose controller did not answer a
 #: measurement in time (sim_node's ``decision_timeout``): the capture node answers ABORTED
 #: with it at once, and the ROS Monte Carlo backend counts the sample as failed
-CONTROLLER_TIMEOUT = "controller did not answer"
+CONTROLLER_TIMEOUT = metrics.CONTROLLER_TIMEOUT
 
 
 def is_controller_timeout(reason: str) -> bool:

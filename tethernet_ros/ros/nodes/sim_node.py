@@ -38,7 +38,7 @@ import time
 
 from rclpy.node import Node
 
-from ...core.episode import CaptureSimulation, episode_result, run_simulation
+from ...core.episode import CaptureSimulation, episode_result, run_simulation, steps_every
 from .. import conversions as conv
 from ..loop import ControllerTimeout, episode_scenario, kernel_config, runs_in_lockstep, truth_of
 from ..markers import MarkerBuilder
@@ -194,9 +194,9 @@ class SimNode(Node):
             return
         dt = scenario.dt
         rate = float(self._p("publish_rate"))
-        every = max(1, int(round(1.0 / (rate * dt))))     # rate > 0: parameters.py
+        every = steps_every(rate, dt)                     # rate > 0: parameters.py
         mrate = float(self._p("marker_rate"))
-        marker_every = max(1, int(round(1.0 / (mrate * dt)))) if mrate > 0 else 0
+        marker_every = steps_every(mrate, dt) if mrate > 0 else 0
         rtf = float(self._p("real_time_factor"))
         markers = MarkerBuilder(scenario, self.frame_id)
         t_wall0 = time.monotonic()
