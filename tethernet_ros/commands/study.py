@@ -129,8 +129,9 @@ def run(args) -> int:
                 stats[(c.label, d)] = CellStats.from_samples(c.label, d, got.samples)
     for c in cells[1:]:
         for d in designs:
-            if (c.label, d) not in stats or (cells[0].label, d) not in stats:
-                continue
+            if (c.label, d) not in stats or (cells[0].label, d) not in stats \
+                    or stats[(c.label, d)].n != stats[(cells[0].label, d)].n:
+                continue   # (a cell still running: compared once complete)
             paired[(c.label, d)] = PairedStats.from_samples(
                 stats[(cells[0].label, d)], stats[(c.label, d)],
                 by_label[f"{cells[0].label}|{d}"].samples, by_label[f"{c.label}|{d}"].samples)
