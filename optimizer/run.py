@@ -18,17 +18,23 @@ Resuming (``resume=True``) replays the checkpoint into the optimiser (no re-eval
 which then asks for exactly the design that was in flight; its samples already in
 ``samples.jsonl`` are reused, so a run killed at any moment loses at most the samples of
 the design in flight that had not finished.  The settings in ``run.json`` must match
-(``iterations`` and the validation's settings may change).  Given the same settings a resumed
+(``iterations``, the racing's and the validation's settings may change;
+:mod:`optimizer.settings`).  Given the same settings a resumed
 run reaches the same result as an uninterrupted one (same machine and library versions).
 
 Sampling: ``sequential=True`` (the default) stops a design's sampling as soon as its
 feasibility at ``samples`` is decided (:mod:`optimizer.sequential`); ``False`` draws every
 sample of every design.  The summary counts the samples the observations rest on
-(``episodes``) against full sampling (``episodes_full``).
+(``episodes``) against full sampling (``episodes_full``), and the racing's and the
+validations' samples (``episodes_racing``, ``episodes_validation``; all:
+``episodes_total``).
 
 Seeds: the optimiser's own randomness (seed design, candidates, GP restarts) comes from
 ``seed``; the optimisation samples are samples ``0..samples-1`` of Monte Carlo base seed
-``sample_seed`` (default 1) for every design (common random numbers); the validation
+``sample_seed`` (default 1) for every design (common random numbers), or with
+``fresh_samples`` of a base seed of each evaluation's own
+(:func:`optimizer.settings.fresh_base_seed`); the racing (:mod:`optimizer.racing`) uses
+base seed ``racing_seed`` (default 2); the validation
 uses ``validation_samples`` samples of base seed ``validation_seed`` (default 0, the
 default of ``tethernet validate``, so the validated numbers are directly comparable with a
 ``tethernet validate --reference`` run of the same size, and are fresh with respect to
@@ -36,9 +42,11 @@ the optimisation samples).
 """
 from __future__ import annotations
 
+import importlib.metadata
 import json
 import math
 import os
+import platform
 import time
 import warnings
 from dataclasses import dataclass
@@ -68,6 +76,40 @@ RUN_FILES = {
     "validation": "validation.jsonl", "racing": "racing.jsonl", "history": "history.csv", "results_csv": "results.csv",
     "results_md": "results.md", "convergence": "convergence.png", "summary": "summary.json",
 }
+
+
+#: the libraries whose versions decide the optimiser's own arithmetic (its Gaussian process,
+#: acquisition and L-BFGS-B polish use numpy's SIMD functions and OpenBLAS), recorded in
+#: run.json beside the problem's machine facts
+OPTIMIZER_LIBRARIES = ("numpy", "scipy", "scikit-learn", "scikit-optimize")
+
+
+def machine_record(problem: DesignProblem) -> dict:
+    """The machine facts a run directory records (run.json ``machine``): the problem's
+    (``problem.machine_facts()`` where it has one: the simulator's CPU features, BLAS kernel
+    and library versions), the optimiser's libraries and the architecture."""
+    facts = dict(problem.machine_facts()) if hasattr(problem, "machine_facts") else {}
+    facts.setdefault("arch", platform.machine())
+    for lib in OPTIMIZER_LIBRARIES:
+        try:
+            facts.setdefault(lib, importlib.metadata.version(lib))
+        except importlib.metadata.PackageNotFoundError:
+            facts.setdefault(lib, "unknown")
+    return facts
+
+
+def machine_notice(recorded: dict | None, here: dict) -> str:
+    """One line when this machine's facts differ from those ``recorded`` in a run's
+    run.json ('' when they agree or the run recorded none)."""
+    if not recorded:
+        return ""
+    diff = [f"{k}: {recorded.get(k)!r} -> {here.get(k)!r}"
+            for k in sorted(set(recorded) | set(here)) if recorded.get(k) != here.get(k)]
+    if not diff:
+        return ""
+    return ("resuming on a machine whose facts differ from the run's (" + "; ".join(diff)
+            + "): the designs proposed from here on may differ in their last bits from an "
+            "uninterrupted run's (docs/optimizer.md#s7)")
 
 
 def default_run_dir(case: str | Case) -> Path:
@@ -111,6 +153,8 @@ def run_optimization(case: str | Case, problem: DesignProblem,
     settings = _settings_from(settings, fields)
     run = open_run(case, problem, settings, run_dir, resume)
     tracker = _Progress(run, progress, callback)
+    if run.notice:
+        warnings.warn(run.notice, RuntimeWarning, stacklevel=2)
     evaluator = DesignEvaluator(case, problem, run.settings.samples, run.settings.sample_seed,
                                 results_path=run.paths["samples"], progress=tracker.on_sample,
                                 sequential=run.settings.sequential,
@@ -158,7 +202,8 @@ def _settings_from(settings: RunSettings | None, fields: dict) -> RunSettings:
 class OpenRun:
     """A run directory opened for a run: the case, the problem, the settings resolved
     against what the directory recorded, the paths of its files (:data:`RUN_FILES`),
-    ``record`` (its run.json as written) and ``previous`` (evaluations already done)."""
+    ``record`` (its run.json as written), ``previous`` (evaluations already done) and
+    ``notice`` (:func:`machine_notice` of a resumed run; '' otherwise)."""
 
     case: Case
     problem: DesignProblem
@@ -166,6 +211,7 @@ class OpenRun:
     paths: dict
     record: dict
     previous: int
+    notice: str = ""
 
     @property
     def total(self) -> int:
@@ -181,11 +227,23 @@ def open_run(case: Case, problem: DesignProblem, settings: RunSettings,
     paths = {k: run_dir / v for k, v in RUN_FILES.items()}
     recorded = (read_run_settings(paths["settings"])
                 if resume and paths["settings"].exists() else None)
-    settings = settings.resolved(recorded, case)
+    settings = settings.resolved(recorded)
     _check_validation_size(case, settings)
     record = json.loads(json.dumps(json_clean(settings.record(case.name, problem.settings()))))
+    here = machine_record(problem)
+    notice = ""
+    if recorded is not None and recorded.get("machine"):
+        # the facts of the machine that started the run stay; a resume on other facts
+        # is noted beside them
+        notice = machine_notice(recorded["machine"], here)
+        record["machine"] = recorded["machine"]
+        record["resumed_on"] = list(recorded.get("resumed_on", []))
+        if notice and here not in record["resumed_on"]:
+            record["resumed_on"].append(here)
+    else:
+        record["machine"] = here
     previous = _open_run_dir(run_dir, paths, record, resume)
-    return OpenRun(case, problem, settings, paths, record, previous)
+    return OpenRun(case, problem, settings, paths, record, previous, notice)
 
 
 def _check_validation_size(case: Case, settings: RunSettings) -> None:
@@ -293,7 +351,7 @@ def _check_resume(paths: dict, record: dict) -> int:
     """Compare run.json with the requested settings; returns the evaluations done."""
     saved = read_run_settings(paths["settings"])
     for key, value in record.items():
-        if key in MUTABLE or key == "model_version":
+        if key in MUTABLE or key in ("model_version", "machine", "resumed_on"):
             continue
         was = saved.get(key, RECORDED_DEFAULTS.get(key))
         if was != value:

@@ -275,18 +275,31 @@ class LatentDifficulty(TestProblem):
     on the same samples (with common random numbers a design's observed P*_s is the
     empirical distribution function of the ``u_i`` at ``P_s(x)``, the same luck for all
     of them).  Feasible when ``P_s(x) >= p_min`` (default 0.98).
+
+    ``dims`` > 2 adds variables x3.. that do not enter the objective but lower P_s away
+    from 0.5: ``c1`` is raised by ``penalty * sum_k (x_k - 0.5)^2`` (as most of Case 1's
+    variables act on P*_s and not on m_a).  Designs of almost one objective then differ
+    in reliability, the near-copies of Case 1's edge; the optimum keeps x_k = 0.5.
     """
 
     name = "latent_difficulty"
-    bounds = [(0.0, 1.0), (0.0, 1.0)]
-    variable_names = ("x1", "x2")
     horizon = math.nan
     grid_points = 801
 
-    def __init__(self, p_min: float = 0.98, s: float = 0.1):
+    def __init__(self, p_min: float = 0.98, s: float = 0.1, dims: int = 2,
+                 penalty: float = 0.4):
         self.p_min, self.s = float(p_min), float(s)
+        self.dims, self.penalty = int(dims), float(penalty)
+        if self.dims < 2:
+            raise ValueError(f"dims: got {dims!r}; must be >= 2")
+        self.bounds = [(0.0, 1.0)] * self.dims
+        self.variable_names = tuple(f"x{k + 1}" for k in range(self.dims))
         self.thresholds = {"p_success": self.p_min}
         self._u: dict[int, np.ndarray] = {}
+
+    def _c(self, x) -> float:
+        x = np.asarray(x, dtype=float)
+        return float(_gramacy_c1(x[:2]) + self.penalty * np.sum((x[2:] - 0.5) ** 2))
 
     # --- the truth
     def objective(self, x) -> float:
@@ -294,10 +307,18 @@ class LatentDifficulty(TestProblem):
 
     def success_probability(self, x) -> float:
         """True P_s(x)."""
-        return float(norm.cdf(-_gramacy_c1(np.asarray(x, dtype=float)) / self.s))
+        return float(norm.cdf(-self._c(x) / self.s))
 
     def true_constraints(self, x):
         return {"p_success": self.success_probability(x)}
+
+    def reference_optimum(self):
+        """The optimum of the first two variables (the grid and polish of
+        :class:`TestProblem`), the others at 0.5."""
+        if self.dims == 2:
+            return super().reference_optimum()
+        x, f = LatentDifficulty(self.p_min, self.s).reference_optimum()
+        return np.concatenate([x, np.full(self.dims - 2, 0.5)]), f
 
     def _grid_values(self, X):
         return X.sum(1), _gramacy_c1(X) <= -self.s * norm.ppf(self.p_min)
@@ -351,8 +372,11 @@ class LatentDifficulty(TestProblem):
         return None
 
     def settings(self) -> dict:
-        return {"problem": self.name, "p_min": self.p_min, "s": self.s,
-                "model_version": self.name}
+        out = {"problem": self.name, "p_min": self.p_min, "s": self.s,
+               "model_version": self.name}
+        if self.dims > 2:
+            out.update(dims=self.dims, penalty=self.penalty)
+        return out
 
     def describe(self) -> str:
         return f"{self.name} test problem (in-process)"

@@ -37,8 +37,9 @@ from results_lines import sample_lines
 ROOT = Path(__file__).resolve().parent.parent
 FAST = {"n_restarts_gp": 0, "n_candidates": 2000}
 SHORT = {"settle_time": 2.0, "horizon": 15.0, "success_cqi": 1.0e6, "success_locked_pairs": 0}
-#: the procedure before racing and fresh samples (issue 21), for tests of what it does
-OLD = dict(racing_candidates=0, fresh_samples=False)
+#: the procedure before racing and the shared-luck model (issue 21), for tests of what
+#: it does
+OLD = dict(racing_candidates=0, fresh_samples=False, shared_luck=False)
 TINY = dict(seed_points=3, iterations=2, samples=3, validation_samples=3,
             validation_rule="estimate", **OLD)
 
@@ -179,7 +180,7 @@ def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequentia
     assert full["best_design"] is not None and full["validation"]["samples"] == 20
     per_design = np.cumsum([int(line.split(",")[13])
                             for line in _history(tmp_path / "full")[1:]])
-    assert full["fresh_samples"] and full["racing"]["episodes"] > 0      # the new defaults
+    assert full["racing"]["episodes"] > 0                                # the new defaults
     assert full["episodes_total"] == len(full_be.tasks) == (
         full["episodes"] + full["episodes_racing"] + full["episodes_validation"])
     assert per_design[-1] == full["episodes"]
@@ -423,7 +424,7 @@ def cli_run(tmp_path_factory, short_yaml):
     out = subprocess.run(
         [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "mass",
          "--seed-points", "3", "--iterations", "2", "--samples", "3", "--validation-samples", "3",
-         "--validation-rule", "estimate", "--racing-candidates", "0", "--no-fresh-samples",
+         "--validation-rule", "estimate", "--racing-candidates", "0", "--no-fresh-samples", "--no-shared-luck",
          "--workers", "0", "--config", str(short_yaml), "--run-dir", str(run_dir),
          "--gp-restarts", "0", "--candidates", "2000", "--json"],
         capture_output=True, text=True, cwd=ROOT, timeout=600)

@@ -10,6 +10,7 @@ from optimizer.cases import CASE_MASS
 from optimizer.evaluator import DesignEvaluator
 from optimizer.observation import Observation
 from optimizer.racing import race
+from optimizer.selection import validation_evidence
 from optimizer.settings import fresh_base_seed
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros.core.design import REFERENCE_DESIGNS
@@ -99,12 +100,13 @@ def test_fresh_samples_give_every_evaluation_its_own_seeds():
 
 
 def test_run_races_before_validating_and_counts_the_racing_samples(tmp_path):
-    """A new synthetic run (the defaults: fresh samples, racing, Wilson rule): the race's
-    samples are recorded (racing.jsonl) and counted in the episodes, no dropped design is
-    validated, the results say how the race went, and resuming the finished run draws
-    nothing again."""
+    """A new synthetic run (the defaults: racing, Wilson rule, shared luck; here with
+    fresh samples): the race's samples are recorded (racing.jsonl) and counted in the
+    episodes, no dropped design is validated, the results say how the race went, and
+    resuming the finished run draws nothing again."""
     kw = dict(iterations=10, seed_points=8, samples=10, validation_samples=200,
-              validation_candidates=4, racing_round=50, optimizer_options=FAST)
+              validation_candidates=4, racing_round=50, optimizer_options=FAST,
+              fresh_samples=True)
     be = SyntheticBackend()
     s = optimize_design("mass", backend=be, run_dir=tmp_path / "r", **kw)
     r = s["racing"]
@@ -134,3 +136,38 @@ def test_run_races_before_validating_and_counts_the_racing_samples(tmp_path):
     with pytest.raises(Exception, match="fresh_samples"):
         optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
                         resume=True, **{**kw, "fresh_samples": False})
+
+
+def test_shared_luck_keeps_near_copies_from_making_the_model_sure():
+    """Ten near-copies observed at 98/100 on the same samples: taken as independent, the
+    constraint GP becomes sure of P_s there (posterior sd far below the 0.014 that 100
+    samples can tell); with the shared luck (variance 0.98 x 0.02 / 100) it stays about
+    that unsure, and fresh samples (evidence, not sharing the luck) still inform it."""
+    from optimizer.bayesopt import ConstrainedBayesOpt
+    from optimizer.observation import binomial_observation
+
+    def fitted(shared, evidence=()):
+        opt = ConstrainedBayesOpt([(0.0, 1.0)], {"p": 0.98}, n_initial=1, seed=0,
+                                  n_restarts_gp=0,
+                                  shared_luck={"p": 0.98 * 0.02 / 100} if shared else None)
+        for x in np.linspace(0.0, 0.3, 4):
+            opt.tell([x], 1.0 + x, {"p": 0.9}, {"p": binomial_observation(90, 100)[1]})
+        for x in 0.5 + 0.001 * np.arange(10):
+            opt.tell([x], 1.0 + x, {"p": 0.98}, {"p": binomial_observation(98, 100)[1]})
+        U, H, obj, cons = opt._fit_models(opt._active_indices(), objective=False,
+                                          evidence=evidence)
+        mu, sd = cons["p"].predict(np.array([[0.505]]))
+        return opt, mu[0] * cons["p"].y_std + cons["p"].y_mean, sd[0] * cons["p"].y_std
+
+    one = binomial_observation(98, 100)[1] ** 0.5      # one estimate's sd: 0.0149
+    _, mu_ind, sd_ind = fitted(False)
+    opt, mu_sh, sd_sh = fitted(True)
+    # independent: ten estimates pool to about one / sqrt(10); shared: no surer than the
+    # luck of the common samples, sqrt(0.98 x 0.02 / 100) = 0.014
+    assert sd_ind < one / 2 and sd_sh > 0.9 * (0.98 * 0.02 / 100) ** 0.5
+    assert abs(mu_ind - 0.98) < 0.005 and abs(mu_sh - 0.98) < 0.01
+    lucky = validation_evidence(opt.history[-5], 960, 1000, "p")     # fresh: 96 %
+    _, mu_ev, sd_ev = fitted(True, [lucky])
+    assert mu_ev < mu_sh - 0.005 and sd_ev < sd_sh
+    assert opt.state_dict()["settings"]["shared_luck"] == {"p": 0.98 * 0.02 / 100}
+    assert "shared_luck" not in fitted(False)[0].state_dict()["settings"]

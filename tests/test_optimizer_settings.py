@@ -5,7 +5,6 @@ import dataclasses
 
 import pytest
 
-from optimizer.cases import CASE_MASS, CASE_TIME
 from optimizer.run import run_optimization
 from optimizer.settings import (NEW_RUN_DEFAULTS, RECORDED_DEFAULTS, RunError, RunSettings,
                                 SettingError)
@@ -65,13 +64,9 @@ def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
     assert all(getattr(s, name) is None for name in NEW_RUN_DEFAULTS)
     with pytest.raises(ValueError, match="resolved"):
         s.record("mass", {})
-    new = s.resolved(None, CASE_MASS)
-    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == {
-        n: v(CASE_MASS) if callable(v) else v for n, v in NEW_RUN_DEFAULTS.items()}
-    assert new.fresh_samples is True                   # Case 1: exact objective
-    assert s.resolved(None, CASE_TIME).fresh_samples is False   # Case 2: mean T compared
-    with pytest.raises(ValueError, match="needs its case"):
-        s.resolved(None)
+    new = s.resolved(None)
+    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == NEW_RUN_DEFAULTS
+    assert new.shared_luck is True and new.fresh_samples is False
     old = s.resolved({})                 # a run.json from before the settings existed
     assert {n: getattr(old, n) for n in NEW_RUN_DEFAULTS} == {
         n: RECORDED_DEFAULTS[n] for n in NEW_RUN_DEFAULTS}
@@ -79,7 +74,7 @@ def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
                if n in NEW_RUN_DEFAULTS}
     assert s.resolved(flipped) == s.replace(**flipped)
     explicit = RunSettings(validation_stop=False)
-    assert explicit.resolved(None, CASE_MASS).validation_stop is False
+    assert explicit.resolved(None).validation_stop is False
     rec = new.record("mass", {"model_version": "m"})
     assert rec["case"] == "mass" and rec["model_version"] == "m"
     assert set(RunSettings.field_names()) <= set(rec)
@@ -100,3 +95,40 @@ def test_command_line_defaults_are_the_settings_defaults():
                  "sample_seed", "validation_seed", "validation_candidates",
                  "validation_rule", "validation_stop"):
         assert getattr(args, name) == getattr(RunSettings(), name), name
+
+
+def test_run_directory_records_the_machine_and_a_resume_elsewhere_says_so(tmp_path):
+    """run.json records the machine facts that decide comparability (issue 18 point 3);
+    resuming where they differ warns in one line naming the differing facts, continues,
+    keeps the first machine's facts and adds the new ones to ``resumed_on``."""
+    import json
+    import warnings
+
+    from optimizer_fakes import SyntheticBackend
+    from tethernet_ros import machine
+    from tethernet_ros.design_problem import optimize_design
+
+    kw = dict(iterations=1, seed_points=3, samples=3, validation_samples=0,
+              racing_candidates=0, optimizer_options={"n_restarts_gp": 0,
+                                                      "n_candidates": 500})
+    run_dir = tmp_path / "r"
+    optimize_design("mass", backend=SyntheticBackend(), run_dir=run_dir, **kw)
+    record = json.loads((run_dir / "run.json").read_text())
+    here = record["machine"]
+    assert {k: here[k] for k in ("cpu_features", "blas", "numpy", "numba")} == {
+        k: machine.machine_facts()[k] for k in ("cpu_features", "blas", "numpy", "numba")}
+    assert here["scikit-learn"] and here["scikit-optimize"]
+    with warnings.catch_warnings():                      # same machine: nothing said
+        warnings.simplefilter("error")
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=run_dir, resume=True,
+                        **{**kw, "iterations": 2})
+    other = {**here, "numpy": "0.0", "cpu_features": "SSE"}
+    (run_dir / "run.json").write_text(json.dumps({**record, "machine": other}))
+    with pytest.warns(RuntimeWarning) as got:
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=run_dir, resume=True,
+                        **{**kw, "iterations": 3})
+    [line] = [str(w.message) for w in got if "machine" in str(w.message)]
+    assert "\n" not in line and "numpy: '0.0'" in line and "cpu_features" in line
+    assert "blas" not in line
+    after = json.loads((run_dir / "run.json").read_text())
+    assert after["machine"] == other and after["resumed_on"] == [here]

@@ -16,7 +16,7 @@ import numpy as np
 
 from optimizer.run import run_optimization
 
-from . import montecarlo
+from . import machine, montecarlo
 from .core.config import SimConfig
 from .core.design import (DESIGN_BOUNDS, PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
                           system_mass)
@@ -77,6 +77,11 @@ class SimulatorProblem:
 
     def describe(self) -> str:
         return self.backend.describe()
+
+    def machine_facts(self) -> dict:
+        """This machine's facts (:func:`tethernet_ros.machine.machine_facts`), which a run
+        directory records."""
+        return machine.machine_facts()
 
 
 def optimize_design(case, *, backend: montecarlo.EpisodeBackend | None = None,

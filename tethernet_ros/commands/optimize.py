@@ -80,15 +80,15 @@ def add_arguments(p):
     p.add_argument("--fresh-samples", action=argparse.BooleanOptionalAction, default=None,
                    help="give every design samples of its own instead of the same samples "
                         "for all (common random numbers), so that the feasibility model's "
-                        "observations are independent.  Default for a new run: on for "
-                        "--case mass (exact objective), off for --case time (common samples "
-                        "compare mean T); on --resume, as the run recorded it")
+                        "observations are independent (then --shared-luck has nothing to "
+                        "do).  Default for a new run: off; on --resume, as the run recorded "
+                        "it")
     p.add_argument("--shared-luck", action=argparse.BooleanOptionalAction, default=None,
-                   help="with common random numbers (--no-fresh-samples), let the "
-                        "feasibility model take the luck that all designs share on the "
-                        "same samples into account instead of taking their estimates as "
-                        "independent.  Default for a new run: off; on --resume, as the run "
-                        "recorded it")
+                   help="with common random numbers (the default), let the feasibility "
+                        "model take the luck that all designs share on the same samples into "
+                        "account instead of taking their estimates as independent.  Default "
+                        "for a new run: on; on --resume, as the run recorded it (off for runs "
+                        "that predate it)")
     p.add_argument("--full-sampling", action="store_true",
                    help="draw all --samples of every design (default: stop a design's "
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
