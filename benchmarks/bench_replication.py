@@ -4,7 +4,9 @@ chooses truly meet C_P, at what regret and cost?
 The problem has a known truth and fails as the simulator does
 (:class:`optimizer.testproblems.LatentDifficulty`: minimise x1 + x2 over [0, 1]^2 s.t.
 P_s(x) = Phi(-c1(x)/0.1) >= 0.98; sample i fails design x when its shared difficulty u_i
->= P_s(x), so nearby designs fail on the same samples).  Every replication is a whole run
+>= P_s(x), so nearby designs fail on the same samples).  ``--dims 4`` adds two variables
+that lower P_s away from 0.5 without entering the objective: near-copies of one
+objective and different reliability, as on Case 1's edge.  Every replication is a whole run
 of Case 1 through :func:`optimizer.run.run_optimization` (seed design, model-based
 iterations, sequential sampling, racing, validations in turn); replication r uses
 optimiser seed r and its own sample, validation and racing seeds, the same for every
@@ -93,7 +95,11 @@ def configuration(args) -> dict:
             "validation_candidates": args.validation_candidates,
             "racing_candidates": args.racing_candidates, "racing_round": args.racing_round,
             "racing_budget": args.racing_budget, "gp_restarts": args.gp_restarts,
-            "candidates": args.candidates, "problem": LatentDifficulty().settings()}
+            "candidates": args.candidates, "problem": problem_of(args).settings()}
+
+
+def problem_of(args) -> LatentDifficulty:
+    return LatentDifficulty(dims=args.dims, penalty=args.penalty)
 
 
 def settings_for(method: str, r: int, args) -> RunSettings:
@@ -113,7 +119,7 @@ def settings_for(method: str, r: int, args) -> RunSettings:
 
 def replicate(method: str, r: int, args, truth: dict) -> dict:
     """One whole run; what it chose, against the truth."""
-    problem = LatentDifficulty()
+    problem = problem_of(args)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         s = run_optimization(CASE_MASS, problem, settings_for(method, r, args),
@@ -230,6 +236,10 @@ def main(argv=None) -> int:
     ap.add_argument("--first", type=int, default=0, help="first replication number")
     ap.add_argument("--methods", default=",".join(METHODS))
     ap.add_argument("--out", default="out/bench/replication.jsonl")
+    ap.add_argument("--dims", type=int, default=2,
+                    help="variables; those past the second act on P_s only (default 2)")
+    ap.add_argument("--penalty", type=float, default=0.4,
+                    help="how strongly the variables past the second lower P_s")
     ap.add_argument("--seed-points", type=int, default=10)
     ap.add_argument("--iterations", type=int, default=60)
     ap.add_argument("--samples", type=int, default=100)
@@ -251,7 +261,7 @@ def main(argv=None) -> int:
     if bad:
         ap.error(f"--methods: unknown {bad}; known: {', '.join(METHODS)}")
     path = Path(args.out)
-    problem = LatentDifficulty()
+    problem = problem_of(args)
     truth = {"f_star": problem.optimum(CASE_MASS.p_threshold),
              "margins": {str(c): problem.optimum(c) - problem.optimum(CASE_MASS.p_threshold)
                          for c in MARGIN_LEVELS}}
