@@ -16,11 +16,12 @@ demo: setup
 lint: setup
 	$(VENV)/bin/ruff check .
 
+# two workers (pytest-xdist): the ROS tests on one of them, in order (tests/conftest.py)
 test: lint
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q -n 2 --dist loadgroup tests
 
 test-fast: setup
-	$(PY) -m pytest -q -m "not slow" tests
+	$(PY) -m pytest -q -n 2 --dist loadgroup -m "not slow" tests
 
 bench: setup
 	$(PY) benchmarks/bench_batch.py

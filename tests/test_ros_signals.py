@@ -39,6 +39,8 @@ def stop_with(proc: subprocess.Popen, sig: int) -> tuple[int | None, float]:
     try:
         code = proc.wait(timeout=WAIT)
     except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGUSR1)        # the node's stacks into its log (runner.py)
+        time.sleep(1.0)
         proc.kill()
         proc.wait()
         code = None

@@ -53,7 +53,7 @@ from ..parameters import declare, describe_builtin, param, sim_config_of, sim_co
 from ..qos import LATCHED_DEPTH, command_qos, state_qos
 from ..recording import Episode, msg_class
 from ..results import compare_results
-from ..runner import run_node
+from ..runner import POLL_S, run_node
 
 NODE = "capture_node"
 #: depth of the recorder's subscriptions (and of the QoS the bag says they were offered)
@@ -106,9 +106,10 @@ class CaptureNode(Node):
         for key in ALWAYS_RECORDED:               # replay needs them; the recorder counts them
             if key not in self.recorded:
                 self.recorded.append(key)
+        self._rec_subs = {}
         for key in self.recorded:
             qos = state_qos(STATE_DEPTH) if key in STATE_TOPICS else command_qos()
-            self.recorder.create_subscription(msg_class(TOPIC_TYPES[key]), self.topic_names[key],
+            self._rec_subs[key] = self.recorder.create_subscription(msg_class(TOPIC_TYPES[key]), self.topic_names[key],
                                               lambda data, k=key: self.on_raw(k, data), qos,
                                               raw=True)
         self._rec_executor = SingleThreadedExecutor(context=self.context)
@@ -142,7 +143,9 @@ class CaptureNode(Node):
 
     def _spin_recorder(self) -> None:
         try:
-            self._rec_executor.spin()
+            # short waits, as runner.run_node's executor (a missed wake-up cannot hang it)
+            while self.context.ok():
+                self._rec_executor.spin_once(timeout_sec=POLL_S)
         except Exception:  # noqa: BLE001 - shutdown
             pass
 
@@ -359,6 +362,10 @@ class CaptureNode(Node):
             for key in publishers:
                 if self.count_publishers(self.topic_names[key]) < 1:
                     missing.append(f"no publisher on {self.topic_names[key]}")
+            # the recorder (a node of this process) must have matched this node's setup
+            # publisher, or a bag could miss the episode's first message (seen under load)
+            if self._rec_subs["setup"].get_publisher_count() < 1:
+                missing.append(f"the recorder has not matched {self.topic_names['setup']}")
             if not missing:
                 return ""
             if time.monotonic() > deadline or not self.context.ok():
