@@ -16,12 +16,12 @@ demo: setup
 lint: setup
 	$(VENV)/bin/ruff check .
 
-# two workers (pytest-xdist): the ROS tests on one of them, in order (tests/conftest.py)
+# two pytest processes side by side (scripts/test.sh): the ROS tests in order with the longest core modules, the rest
 test: lint
-	$(PY) -m pytest -q -n 2 --dist loadgroup tests
+	bash scripts/test.sh
 
 test-fast: setup
-	$(PY) -m pytest -q -n 2 --dist loadgroup -m "not slow" tests
+	TEST_MARK="not slow" bash scripts/test.sh
 
 bench: setup
 	$(PY) benchmarks/bench_batch.py

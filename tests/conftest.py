@@ -12,17 +12,28 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: long physics studies (CI runs them; -m 'not slow' skips)")
+    config.addinivalue_line("markers", "second_half: run by scripts/test.sh in its second process")
     config.addinivalue_line("markers", "ros: needs the ROS 2 Jazzy wheels and tethernet_msgs (scripts/setup.sh)")
     # lark (rosidl's IDL parser, imported by rclpy) imports modules deprecated in 3.11
     config.addinivalue_line("filterwarnings", "ignore:module 'sre_:DeprecationWarning")
 
 
+
+
+#: core modules that scripts/test.sh runs beside the ROS tests (the longest of them, so
+#: that the two halves take about the same time on 2 cores: measured 2026-12-02, the ROS
+#: tests 254 s and the rest 710 s)
+BESIDE_ROS = ("test_core_statistics.py", "test_reproducibility.py")
+
+
 def pytest_collection_modifyitems(config, items):
-    """Under pytest-xdist (``make test``: ``-n 2 --dist loadgroup``) every ROS test runs
-    on one worker, one after the other, as without xdist: their suites choose ROS domains
-    from their process id, and two suites in one domain would answer each other."""
+    """Every test of a ``test_ros_*`` module carries the ``ros`` marker, and the tests that
+    scripts/test.sh runs in its second process (the ROS tests, in file order as some of
+    them require, and the modules of :data:`BESIDE_ROS`) the ``second_half`` marker."""
     import pytest
 
     for item in items:
-        if item.get_closest_marker("ros") or item.path.name.startswith("test_ros_"):
-            item.add_marker(pytest.mark.xdist_group("ros"))
+        if item.path.name.startswith("test_ros_") and not item.get_closest_marker("ros"):
+            item.add_marker(pytest.mark.ros)
+        if item.get_closest_marker("ros") or item.path.name in BESIDE_ROS:
+            item.add_marker(pytest.mark.second_half)
