@@ -227,7 +227,7 @@ def open_run(case: Case, problem: DesignProblem, settings: RunSettings,
     paths = {k: run_dir / v for k, v in RUN_FILES.items()}
     recorded = (read_run_settings(paths["settings"])
                 if resume and paths["settings"].exists() else None)
-    settings = settings.resolved(recorded)
+    settings = settings.resolved(recorded, case)
     _check_validation_size(case, settings)
     record = json.loads(json.dumps(json_clean(settings.record(case.name, problem.settings()))))
     here = machine_record(problem)

@@ -36,13 +36,16 @@ RUN_VERSION = 1
 MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
                      "validation_rule", "validation_stop", "compare_reference",
                      "racing_candidates", "racing_round", "racing_budget", "racing_seed"})
-#: the value of a ``None`` ("as recorded") setting for a new run
+#: the value of a ``None`` ("as recorded") setting for a new run; a callable takes the
+#: :class:`~optimizer.cases.Case`
 NEW_RUN_DEFAULTS = {
     "validation_rule": "wilson", "validation_stop": True, "racing_candidates": 5,
-    # common random numbers (they compare Case 2's mean T), with the constraint model
-    # taking their shared luck into account: chosen over fresh samples per design by the
-    # replication benchmark (docs/cases/replication.md)
-    "fresh_samples": False, "shared_luck": True,
+    # fresh samples where the objective is exact (Case 1: lower regret than common
+    # samples with the shared-luck model in the replication benchmark,
+    # docs/cases/replication.md); common random numbers where they compare the objective
+    # (Case 2's mean T), with the constraint model taking their shared luck into account
+    "fresh_samples": lambda case: not case.objective_from_samples,
+    "shared_luck": True,
 }
 #: the value of a setting that a run directory of an older version does not record
 RECORDED_DEFAULTS = {"sequential": False, "validation_rule": "estimate",
@@ -128,7 +131,7 @@ class RunSettings:
         fresh_samples: every design gets samples of its own (base seed
             :func:`fresh_base_seed`) instead of the same ``sample_seed`` samples (common
             random numbers), so that the constraint model's observations are independent;
-            or None (module docstring).
+            or None (for a new run: fresh where the objective is exact, Case 1).
         shared_luck: with common random numbers, the constraint GP models the luck that
             all designs share (an error of variance C_P (1 - C_P) / samples common to
             every optimisation estimate, :class:`~optimizer.gp.GPModel`), instead of
@@ -213,15 +216,21 @@ class RunSettings:
         """A copy with ``changes`` (checked again)."""
         return dataclasses.replace(self, **changes)
 
-    def resolved(self, recorded: Mapping | None) -> RunSettings:
+    def resolved(self, recorded: Mapping | None, case=None) -> RunSettings:
         """The ``None`` settings made definite: from ``recorded`` (a resumed run's
         run.json; :data:`RECORDED_DEFAULTS` where it lacks them), or from
-        :data:`NEW_RUN_DEFAULTS` when ``recorded`` is None (a new run)."""
+        :data:`NEW_RUN_DEFAULTS` when ``recorded`` is None (a new run of ``case``)."""
         changes = {}
         for name, new in NEW_RUN_DEFAULTS.items():
             if getattr(self, name) is None:
-                changes[name] = (new if recorded is None
-                                 else recorded.get(name, RECORDED_DEFAULTS[name]))
+                if recorded is not None:
+                    changes[name] = recorded.get(name, RECORDED_DEFAULTS[name])
+                elif callable(new):
+                    if case is None:
+                        raise ValueError(f"resolving {name} for a new run needs its case")
+                    changes[name] = new(case)
+                else:
+                    changes[name] = new
         return self.replace(**changes) if changes else self
 
     def record(self, case_name: str, problem_settings: Mapping) -> dict:

@@ -251,7 +251,7 @@ def test_optimizer_run_machine_independent(name, tmp_path):
     # the end of the run from the recorded history: choice, validation, table
     run_dir = tmp_path / "run"
     settings = RunSettings(**{k: v for k, v in kw.items() if k != "case"}, sequential=False,
-                           optimizer_options=FAST).resolved(None)
+                           optimizer_options=FAST).resolved(None, case)
     state = {**opt.state_dict(), "history": history}        # with the recorded diagnostics
     save_checkpoint(run_dir / "checkpoint.json", {"optimizer": state})
     (run_dir / "run.json").write_text(json.dumps(json_clean(

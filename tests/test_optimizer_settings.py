@@ -5,6 +5,7 @@ import dataclasses
 
 import pytest
 
+from optimizer.cases import CASE_MASS, CASE_TIME
 from optimizer.run import run_optimization
 from optimizer.settings import (NEW_RUN_DEFAULTS, RECORDED_DEFAULTS, RunError, RunSettings,
                                 SettingError)
@@ -64,9 +65,14 @@ def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
     assert all(getattr(s, name) is None for name in NEW_RUN_DEFAULTS)
     with pytest.raises(ValueError, match="resolved"):
         s.record("mass", {})
-    new = s.resolved(None)
-    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == NEW_RUN_DEFAULTS
-    assert new.shared_luck is True and new.fresh_samples is False
+    new = s.resolved(None, CASE_MASS)
+    assert {n: getattr(new, n) for n in NEW_RUN_DEFAULTS} == {
+        n: v(CASE_MASS) if callable(v) else v for n, v in NEW_RUN_DEFAULTS.items()}
+    assert new.fresh_samples is True                   # Case 1: exact objective
+    time_run = s.resolved(None, CASE_TIME)             # Case 2: mean T compared on CRN
+    assert time_run.fresh_samples is False and time_run.shared_luck is True
+    with pytest.raises(ValueError, match="needs its case"):
+        s.resolved(None)
     old = s.resolved({})                 # a run.json from before the settings existed
     assert {n: getattr(old, n) for n in NEW_RUN_DEFAULTS} == {
         n: RECORDED_DEFAULTS[n] for n in NEW_RUN_DEFAULTS}
@@ -74,7 +80,7 @@ def test_as_recorded_settings_resolve_for_new_and_resumed_runs():
                if n in NEW_RUN_DEFAULTS}
     assert s.resolved(flipped) == s.replace(**flipped)
     explicit = RunSettings(validation_stop=False)
-    assert explicit.resolved(None).validation_stop is False
+    assert explicit.resolved(None, CASE_MASS).validation_stop is False
     rec = new.record("mass", {"model_version": "m"})
     assert rec["case"] == "mass" and rec["model_version"] == "m"
     assert set(RunSettings.field_names()) <= set(rec)

@@ -81,10 +81,11 @@ def add_arguments(p):
                    help="give every design samples of its own instead of the same samples "
                         "for all (common random numbers), so that the feasibility model's "
                         "observations are independent (then --shared-luck has nothing to "
-                        "do).  Default for a new run: off; on --resume, as the run recorded "
-                        "it")
+                        "do).  Default for a new run: on for --case mass (exact objective), "
+                        "off for --case time (common samples compare mean T); on --resume, "
+                        "as the run recorded it")
     p.add_argument("--shared-luck", action=argparse.BooleanOptionalAction, default=None,
-                   help="with common random numbers (the default), let the feasibility "
+                   help="with common random numbers (--case time's default), let the feasibility "
                         "model take the luck that all designs share on the same samples into "
                         "account instead of taking their estimates as independent.  Default "
                         "for a new run: on; on --resume, as the run recorded it (off for runs "
