@@ -3,7 +3,9 @@ against the tumble rate about each axis, under the threshold and the adaptive po
 rate at which each design falls below 90 %; and the figure.
 
 The cells are ``studies.cells.tumbling_cells``: 'rest <policy>' and '<axis> <rate>
-<policy>'.  A cell without results yet (a study still running) is shown as '-'.
+<policy>'.  A cell without results yet (a study still running) is shown as '-'; rates
+and axes that no design has results for (a study run on some cells, ``--cells``) are left
+out of the tables and the figure.
 """
 from __future__ import annotations
 
@@ -35,16 +37,34 @@ def _t(c) -> str:
     return "-" if c is None or not c.n or not math.isfinite(c.mean_t) else f"{c.mean_t:.2f}"
 
 
+def _measured(stats: dict, axis, rate) -> bool:
+    """Whether any design has results at (axis, rate) under either policy."""
+    return any(n.n for (label, _d), n in stats.items()
+               if label in (_label(axis, rate, p) for p in POLICIES))
+
+
+def measured_rates(stats: dict, axis: str) -> list[float]:
+    """0 (at rest) and the rates about ``axis`` that any design has results for."""
+    return [r for r in (0.0,) + TUMBLE_RATES if _measured(stats, None if r == 0 else axis, r)]
+
+
 def falls_below(stats: dict, design: str, axis: str, policy: str) -> str:
-    """The lowest rate (deg/s) of the grid at which P*_s < FLOOR, '> 8' if none, '-' when
-    a cell is missing before it."""
-    for rate in (0.0,) + TUMBLE_RATES:
+    """The lowest measured rate (deg/s) at which P*_s < FLOOR, '> R' (R the highest
+    measured) if none, '-' when a measured cell of this design is missing before it."""
+    rates = measured_rates(stats, axis)
+    for rate in rates:
         c = _cell(stats, axis, rate, policy, design)
         if c is None or not c.n:
             return "-"
         if c.p < FLOOR:
             return f"{rate:g}"
-    return f"> {TUMBLE_RATES[-1]:g}"
+    return f"> {rates[-1]:g}" if rates else "-"
+
+
+def _measured_axes(stats: dict) -> list[str]:
+    """The axes with results at some rate (all of them when none has any)."""
+    axes = [a for a in TUMBLE_AXES if any(_measured(stats, a, r) for r in TUMBLE_RATES)]
+    return axes or list(TUMBLE_AXES)
 
 
 def tumbling_table(designs: list[str], stats: dict) -> str:
@@ -56,20 +76,22 @@ def tumbling_table(designs: list[str], stats: dict) -> str:
         out.append("| axis | rate (deg/s) | P*_s threshold % [95 %] | mean T (s) | "
                    "P*_s adaptive % [95 %] | mean T (s) |")
         out.append("|---|---|---|---|---|---|")
-        rows = [(None, 0.0)] + [(a, r) for a in TUMBLE_AXES for r in TUMBLE_RATES]
+        rows = [(None, 0.0)] + [(a, r) for a in TUMBLE_AXES for r in TUMBLE_RATES
+                                if _measured(stats, a, r)]
         for axis, rate in rows:
             th = _cell(stats, axis, rate, "threshold", d)
             ad = _cell(stats, axis, rate, "adaptive", d)
             out.append(f"| {axis or 'at rest'} | {rate:g} | {_fmt(th)} | {_t(th)} | {_fmt(ad)} "
                        f"| {_t(ad)} |")
         out.append("")
-    out.append(f"Lowest rate of the grid (deg/s) at which P*_s falls below {100 * FLOOR:.0f} %"
+    axes = _measured_axes(stats)
+    out.append(f"Lowest measured rate (deg/s) at which P*_s falls below {100 * FLOOR:.0f} %"
                " (threshold / adaptive):\n")
-    out.append("| design | " + " | ".join(TUMBLE_AXES) + " |")
-    out.append("|---|" + "---|" * len(TUMBLE_AXES))
+    out.append("| design | " + " | ".join(axes) + " |")
+    out.append("|---|" + "---|" * len(axes))
     for d in designs:
         cells = [f"{falls_below(stats, d, a, 'threshold')} / {falls_below(stats, d, a, 'adaptive')}"
-                 for a in TUMBLE_AXES]
+                 for a in axes]
         out.append(f"| {d} | " + " | ".join(cells) + " |")
     return "\n".join(out) + "\n"
 
@@ -81,11 +103,13 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(TUMBLE_AXES), figsize=(5 * len(TUMBLE_AXES), 4.2),
-                             sharey=True)
-    rates = (0.0,) + TUMBLE_RATES
+    panels = _measured_axes(stats)
+    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels) + 1, 4.2),
+                             sharey=True, squeeze=False)
+    axes = axes[0]
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, axis in zip(axes, TUMBLE_AXES):
+    for ax, axis in zip(axes, panels):
+        rates = measured_rates(stats, axis)
         for k, d in enumerate(designs):
             for policy, style in zip(POLICIES, ("-", "--")):
                 xs, ys, lo, hi = [], [], [], []
