@@ -18,8 +18,6 @@ def pytest_configure(config):
     config.addinivalue_line("filterwarnings", "ignore:module 'sre_:DeprecationWarning")
 
 
-
-
 #: core modules that scripts/test.sh runs beside the ROS tests (the longest of them, so
 #: that the two halves take about the same time on 2 cores: measured 2026-12-02, the ROS
 #: tests 254 s and the rest 710 s)

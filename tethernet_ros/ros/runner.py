@@ -24,6 +24,15 @@ import time
 POLL_S = 0.2
 
 
+def spin_while_ok(executor, context) -> None:
+    """Spin ``executor`` while ``context`` is alive, in waits of at most POLL_S, not
+    ``executor.spin()``: now and then (about one stop in a hundred, measured under load)
+    a signal shuts the context down but the executor's wait is never woken, and the node
+    would hang in it; each wait ends after POLL_S and the loop sees the context gone."""
+    while context.ok():
+        executor.spin_once(timeout_sec=POLL_S)
+
+
 def default_environment() -> None:
     """Keep DDS discovery on this host unless the environment says otherwise."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -61,14 +70,8 @@ def run_node(factory, args=None, threads: int = 1) -> int:
         executor = MultiThreadedExecutor(num_threads=threads) if threads > 1 \
             else SingleThreadedExecutor()
         executor.add_node(node)
-        context = node.context
         try:
-            # spin in short waits, not executor.spin(): now and then (about one stop in
-            # a hundred, measured under load) the signal shuts the context down but the
-            # executor's wait is never woken and the node would hang in it; each wait
-            # ends after POLL_S and the loop sees the context gone
-            while context.ok():
-                executor.spin_once(timeout_sec=POLL_S)
+            spin_while_ok(executor, node.context)
         finally:
             executor.shutdown(timeout_sec=1.0)
     except (KeyboardInterrupt, ExternalShutdownException):

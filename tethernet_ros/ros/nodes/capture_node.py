@@ -53,7 +53,7 @@ from ..parameters import declare, describe_builtin, param, sim_config_of, sim_co
 from ..qos import LATCHED_DEPTH, command_qos, state_qos
 from ..recording import Episode, msg_class
 from ..results import compare_results
-from ..runner import POLL_S, run_node
+from ..runner import run_node, spin_while_ok
 
 NODE = "capture_node"
 #: depth of the recorder's subscriptions (and of the QoS the bag says they were offered)
@@ -143,9 +143,7 @@ class CaptureNode(Node):
 
     def _spin_recorder(self) -> None:
         try:
-            # short waits, as runner.run_node's executor (a missed wake-up cannot hang it)
-            while self.context.ok():
-                self._rec_executor.spin_once(timeout_sec=POLL_S)
+            spin_while_ok(self._rec_executor, self.context)
         except Exception:  # noqa: BLE001 - shutdown
             pass
 
