@@ -78,7 +78,7 @@ def assert_same_result(r, ref):
 def suite(tmp_path_factory):
     s = RosSuite(config=CONFIG, noise_model=NOISE, bag_dir=tmp_path_factory.mktemp("bags"),
                  log_dir=tmp_path_factory.mktemp("logs"), lockstep=True, domain_id=BASE_DOMAIN,
-                 params={"capture_node": {"stall_timeout": 8.0, "ready_timeout": 5.0,
+                 params={"capture_node": {"stall_timeout": 12.0, "ready_timeout": 5.0,
                                           "record_topics": list(TOPICS)}})
     s.start()
     yield s
@@ -257,13 +257,14 @@ def test_controller_that_does_not_answer_fails_its_sample_and_the_suite_goes_on(
     monkeypatch.setenv("PYTHONPATH", str(Path(__file__).parent))
     cfg = CONFIG.replace(policy=PolicyConfig(kind="external"))
     with RosBackend(log_dir=tmp_path / "logs", controller="test_ros_loop:SilentFirstEpisode",
-                    params={"sim_node": {"decision_timeout": 1.0}},
+                    params={"sim_node": {"decision_timeout": 1.0, "match_timeout": 2.0}},
                     domain_id=BASE_DOMAIN + 3) as be:
         got = evaluate(DESIGN, 2, 4, config=cfg, backend=be)
         assert be.suite_starts == 1 and be.episodes == 2
     bad, good = got.samples
     assert not bad.success and bad.category == CONTROLLER_FAILURE and bad.attempts == 1
-    assert bad.failure_reason.startswith(f"{CONTROLLER_TIMEOUT} within 1 s: no ClosingDecision")
+    # silent from the first step: decision_timeout + the first decision's match_timeout
+    assert bad.failure_reason.startswith(f"{CONTROLLER_TIMEOUT} within 3 s: no ClosingDecision")
     ref = evaluate(DESIGN, 2, 4, config=CONFIG, backend=InProcessBackend()).samples[1]
     for f in ("seed", "success", "settled_cqi", "locked_pairs", "closing_time", "completion_time"):
         assert same(getattr(good, f), getattr(ref, f)), f

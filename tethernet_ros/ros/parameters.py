@@ -168,9 +168,10 @@ PARAMETERS: dict[str, dict[str, Param]] = {
         "match_timeout": number(5.0, "wait at most this long for those subscribers (s, "
                                 "wall)", 0.0, 3600.0, "s"),
         "decision_timeout": number(5.0, "lockstep episodes: wait at most this long for the "
-                                   "controller's ClosingDecision of a control step (s, wall); "
-                                   "then the episode ends, failed (keep it below the capture "
-                                   "node's stall_timeout)", 0.01, 3600.0, "s"),
+                                   "controller's ClosingDecision of a control step (s, wall; "
+                                   "the first decision of an episode: match_timeout more); "
+                                   "then the episode ends, failed (keep the sum below the "
+                                   "capture node's stall_timeout)", 0.01, 3600.0, "s"),
         "warm_up": Param(True, "load the numba kernels at start-up, not in the first episode",
                          read_only=True),
     },

@@ -106,9 +106,10 @@ class SensorNode(Node):
         # the first measurement goes out
         for pub in (self.pub_measurement, self.pub_pose, self.pub_twist, self.pub_point):
             want = self.count_subscribers(pub.topic_name)
-            if want:
-                wait_for_subscribers(pub, want, float(param(self, "match_timeout")),
-                                     self.context)
+            if want and not wait_for_subscribers(pub, want, float(param(self, "match_timeout")),
+                                                 self.context):
+                self.get_logger().warning(f"{pub.topic_name}: {pub.get_subscription_count()} "
+                                          f"of {want} subscribers matched at the start")
         while self.pending:
             self._sense(self.pending.popleft())
 

@@ -17,7 +17,8 @@ By default the closing policy runs inside the kernel from the ClosingCommand's t
 which arrives before the first step, so nothing depends on message timing.  In a lockstep
 episode (:func:`..loop.runs_in_lockstep`) the kernel's policy is 'external' and
 ``advance`` also stops at every control step: it publishes /clock and the true
-measurement and waits (``decision_timeout`` s at most) for the ClosingDecision of that
+measurement and waits (``decision_timeout`` s at most; before the controller's first
+decision of an episode, ``match_timeout`` s more) for the ClosingDecision of that
 step, from the controller behind the sensor node, before it goes on; a decision to close
 is commanded at that step, as the kernel's own policy would start it
 (:class:`..loop.ControlledSimulation`).  A controller that does not answer in time ends the
@@ -239,7 +240,8 @@ class SimNode(Node):
         controller = None
         if lockstep:
             controller = self._exchange(setup.episode_id, scenario.close_threshold,
-                                        float(self._p("decision_timeout")), should_stop,
+                                        float(self._p("decision_timeout")),
+                                        float(self._p("match_timeout")), should_stop,
                                         publish_clock)
         sim = PublishingSimulation(scenario, every, publish, should_stop, controller)
         n_subs = int(self._p("min_state_subscribers"))
@@ -290,12 +292,19 @@ class SimNode(Node):
                  f"wall {result.wall_time:.2f} s")
 
     def _exchange(self, episode_id: str, closing_displacement: float, timeout: float,
-                  should_stop, publish_clock):
+                  set_up_time: float, should_stop, publish_clock):
         """The controller of a lockstep episode's simulation: at a control step, publish
         /clock and the true measurement (through the outbox, after the states before it)
-        and wait for the ClosingDecision of that step; its ``close``."""
+        and wait for the ClosingDecision of that step (``timeout`` s); its ``close``.
+
+        Until the controller's first decision of the episode, the wait is ``set_up_time``
+        s longer: the first measurement also waits for the loop's per-episode set-up,
+        which starts with the same commands as the simulation (the sensor node builds its
+        sensor and waits up to its ``match_timeout`` for its subscribers; seen to take over
+        5 s on a loaded 2-core machine)."""
         frame = self.frame_id
         topic_name = self.sub_decision.topic_name
+        answered_once = [False]
 
         def exchange(sim) -> bool:
             step, sim_time = sim.step, sim.time
@@ -311,15 +320,17 @@ class SimNode(Node):
                 self.pub_truth.publish(msg)
 
             self._outbox.put(send)
-            deadline = time.monotonic() + timeout
+            wait = timeout if answered_once[0] else timeout + set_up_time
+            deadline = time.monotonic() + wait
             while not self._answered.wait(0.05):
                 if should_stop():
                     raise EpisodeAborted()
                 if time.monotonic() > deadline:
                     raise ControllerTimeout(
-                        f"{CONTROLLER_TIMEOUT} within {timeout:g} s: no ClosingDecision on "
+                        f"{CONTROLLER_TIMEOUT} within {wait:g} s: no ClosingDecision on "
                         f"{topic_name} for step {step} (t = {sim_time:.3f} s; is sensor_node "
                         "running, and a controller: actuator_node's built-in policy or yours?)")
+            answered_once[0] = True
             return bool(self._answer.close)
 
         return exchange
