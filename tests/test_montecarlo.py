@@ -212,3 +212,30 @@ def test_evaluate_many_shares_identical_runs():
         mc.evaluate(DESIGN, 0, 0, backend=be)
     with pytest.raises(ValueError):
         mc.evaluate(DESIGN, 2, -1, backend=be)
+
+
+class ControllerBackend(mc.InProcessBackend):
+    """The in-process backend as if a user's controller (``source``) decided the episodes."""
+
+    def __init__(self, source):
+        super().__init__()
+        self.episode_source = source
+
+
+def test_resume_never_mixes_samples_of_another_controller(tmp_path):
+    cfg = SimConfig(settle_time=2.0, horizon=1.0)      # fast: closing never triggers
+    path = tmp_path / "r.jsonl"
+    plain = mc.run_key(DESIGN, NoiseModel(), cfg)
+    assert mc.run_key(DESIGN, NoiseModel(), cfg, episode_source=None) == plain
+    assert mc.run_key(DESIGN, NoiseModel(), cfg, episode_source="a:Ctl sha256:1") != plain
+    first = mc.evaluate(DESIGN, 2, 0, NoiseModel(), cfg, ControllerBackend("a:Ctl sha256:1"),
+                        results_path=path)
+    edited = mc.evaluate(DESIGN, 2, 0, NoiseModel(), cfg, ControllerBackend("a:Ctl sha256:2"),
+                         results_path=path)
+    assert first.reused == 0 and edited.reused == 0 and edited.key != first.key
+    again = mc.evaluate(DESIGN, 2, 0, NoiseModel(), cfg, ControllerBackend("a:Ctl sha256:1"),
+                        results_path=path)
+    assert again.reused == 2 and again.key == first.key
+    library = mc.evaluate(DESIGN, 2, 0, NoiseModel(), cfg, mc.InProcessBackend(),
+                          results_path=path)
+    assert library.reused == 0 and library.key == plain

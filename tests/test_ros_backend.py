@@ -51,6 +51,23 @@ def test_ros_backend_equals_in_process(tmp_path):
     assert list(bag_dir.iterdir()) == []                  # bags read, then removed
 
 
+def test_controller_identity_follows_its_source(tmp_path, monkeypatch):
+    """A user's controller enters the run key with its source's hash: editing it starts new
+    samples in a resumed results file (tests/test_montecarlo.py checks the reuse)."""
+    from tethernet_ros.ros.suite import controller_identity
+
+    (tmp_path / "my_ctl.py").write_text("class Ctl:\n    pass\n")
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    before = RosBackend(bag_dir=tmp_path, controller="my_ctl:Ctl").episode_source
+    assert before.startswith("my_ctl:Ctl sha256:")
+    assert controller_identity("my_ctl:Ctl") == before
+    (tmp_path / "my_ctl.py").write_text("class Ctl:\n    pass  # edited\n")
+    assert controller_identity("my_ctl:Ctl") not in (before, "my_ctl:Ctl")
+    assert controller_identity("no_such_module_here:Ctl") == "no_such_module_here:Ctl"
+    assert RosBackend(bag_dir=tmp_path).episode_source is None
+    assert RosBackend(bag_dir=tmp_path, lockstep=True).episode_source is None
+
+
 def test_two_suites_side_by_side_equal_in_process(tmp_path):
     """RosBackend(workers=2): two suites in domains of their own, a sample each as they
     free up; a tumbling target (a transverse axis drawn per sample) through the actuator's

@@ -58,6 +58,11 @@ class EpisodeBackend(abc.ABC):
 
     name = "backend"
     workers = 1
+    #: what decides the episodes besides the library, or None: the backends that reproduce
+    #: ``run_episode`` bit for bit leave it None; one that runs a user's controller names
+    #: it (its spec and source hash), and that enters the run key (:func:`.keys.run_key`),
+    #: so that a resumed results file never mixes another controller's samples in
+    episode_source: str | None = None
 
     @property
     def batch_size(self) -> int:

@@ -128,7 +128,8 @@ def evaluate_many(specs: Sequence[RunSpec], n_samples: int, base_seed: int = 0,
     busy); specs with identical keys are simulated once.  Results in the order of specs."""
     _check_counts(n_samples, base_seed)
     t0 = time.perf_counter()
-    keys = [run_key(s.design, s.noise_model, s.config) for s in specs]
+    source = getattr(backend, "episode_source", None)
+    keys = [run_key(s.design, s.noise_model, s.config, episode_source=source) for s in specs]
     seeds = [sample_seed(base_seed, i) for i in range(n_samples)]
     rfile = ResultsFile(results_path) if results_path is not None else None
     known = _load(rfile, set(keys)) if (rfile is not None and resume) else {}
@@ -184,7 +185,8 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     if batch_size is not None and (isinstance(batch_size, bool) or int(batch_size) < 1):
         raise ValueError(f"batch_size: got {batch_size!r}; must be an integer >= 1")
     t0 = time.perf_counter()
-    key = run_key(spec.design, spec.noise_model, spec.config)
+    key = run_key(spec.design, spec.noise_model, spec.config,
+                  episode_source=getattr(backend, "episode_source", None))
     rfile = ResultsFile(results_path) if results_path is not None else None
     known = _load(rfile, {key}) if (rfile is not None and resume) else {}
     extras = {key: _extra(spec)}

@@ -37,10 +37,14 @@ def model_version_of(core: Path) -> str:
 
 
 def run_key(design: Design, noise_model: NoiseModel, config: SimConfig,
-            model: str | None = None) -> str:
+            model: str | None = None, episode_source: str | None = None) -> str:
     """Identity of the episodes a (design, noise model, config) produces for a seed, under
-    this process's model version (or ``model``, one recorded in a results file)."""
+    this process's model version (or ``model``, one recorded in a results file), and, when
+    something outside the library decides them (``episode_source``: a user's controller,
+    :attr:`.backends.EpisodeBackend.episode_source`), its identity."""
     ident = {"design": design.to_dict(), "noise": asdict(noise_model), "config": config.to_dict(),
              "seed_map": f"b*{SEED_STRIDE}+i", "model": model or model_version()}
+    if episode_source is not None:
+        ident["episode_source"] = str(episode_source)
     blob = json.dumps(ident, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]

@@ -95,7 +95,7 @@ class RosBackend(EpisodeBackend):
                  start_timeout: float = 300.0, episode_timeout: float = 900.0,
                  workers: int = 1, lockstep: bool = False, controller: str | None = None,
                  domain_id: int | None = None):
-        from .suite import default_domain
+        from .suite import controller_identity, default_domain
 
         self._tmp = None
         if bag_dir is None:
@@ -110,6 +110,8 @@ class RosBackend(EpisodeBackend):
         self.workers = max(1, int(workers))
         self.lockstep = bool(lockstep)
         self.controller = controller
+        #: the controller's spec and source hash enter the run key (EpisodeBackend)
+        self.episode_source = controller_identity(controller) if controller else None
         base = default_domain() if domain_id is None else int(domain_id)
         self._slots = [_Slot((base + i) % (MAX_DOMAIN + 1)) for i in range(self.workers)]
         self._count = threading.Lock()

@@ -16,6 +16,7 @@ files in ``log_dir`` (a temporary folder unless given); errors quote the last li
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import shutil
@@ -115,6 +116,30 @@ def controller_command(spec: str) -> list[str]:
         raise RosCaptureError(f"controller {spec!r}: no such executable (a console script, "
                               "a path, or module:Class of a Node)")
     return [path]
+
+
+def controller_identity(spec: str) -> str:
+    """What identifies a user's controller in a run key: its spec and the SHA-256 (16 hex
+    digits) of its source, so that editing the controller starts new samples.  Source:
+    for ``module:Class``, the module's file, looked up in ``PYTHONPATH`` (the environment
+    the controller will run in) and then this process's path; for an executable, its own
+    file (a console script's entry module is not followed).  The spec alone if neither is
+    found."""
+    if ":" in spec and os.path.sep not in spec:
+        module = spec.split(":", 1)[0]
+        rel = Path(*module.split("."))
+        roots = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p] + sys.path
+        files = (Path(root or ".") / r for root in roots
+                 for r in (rel.with_suffix(".py"), rel / "__init__.py"))
+        source = next((f for f in files if f.is_file()), None)
+    else:
+        try:
+            source = Path(controller_command(spec)[0])
+        except RosCaptureError:
+            source = None
+    if source is None:
+        return spec
+    return f"{spec} sha256:{hashlib.sha256(source.read_bytes()).hexdigest()[:16]}"
 
 
 def _signal_text(code: int) -> str:
