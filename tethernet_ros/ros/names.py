@@ -72,17 +72,21 @@ STATUS_NAMES = {SUCCEEDED: "SUCCEEDED", REJECTED: "REJECTED", ABORTED: "ABORTED"
 #: std_srvs/Trigger of the capture node: success when it sees every node of the suite
 READY_SERVICE = "/tethernet/suite_ready"
 
-#: subscribers of each topic the capture node requires before it starts an episode
-#: (its own recorder included)
+#: subscribers of each topic the capture node requires before it starts an episode: the
+#: setup reaches the simulation, actuator and monitor nodes and the capture node's own
+#: recorder; the commands the simulation, the monitor and the recorder; the net state the
+#: monitor and the recorder (the sensor node, always running, is needed in lockstep only)
 REQUIRED_SUBSCRIBERS = {"setup": 4, "launch_command": 3, "closing_command": 3, "net_state": 2}
 #: topics that need a publisher before an episode starts
 REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metrics", "result",
                        "verdict")
-#: what a lockstep episode (the closing policy run through ROS) requires besides: the sensor
-#: node and the recorder on the truth, a controller (the actuator's built-in policy or a
-#: user's node) and the recorder on the sensed measurement, the simulation and the
-#: recorder on the decisions
-LOCKSTEP_SUBSCRIBERS = {"true_measurement": 2, "measurement": 2, "closing_decision": 2}
+#: what a lockstep episode (the closing policy run through ROS) requires besides (these
+#: counts replace REQUIRED_SUBSCRIBERS'): the sensor node also on the setup and the
+#: commands (it builds the episode's sensor from them), the sensor node and the recorder on
+#: the truth, a controller (the actuator's built-in policy or a user's node) and the
+#: recorder on the sensed measurement, the simulation and the recorder on the decisions
+LOCKSTEP_SUBSCRIBERS = {"setup": 5, "launch_command": 4, "closing_command": 4,
+                        "true_measurement": 2, "measurement": 2, "closing_decision": 2}
 LOCKSTEP_PUBLISHERS = ("true_measurement", "measurement", "closing_decision")
 #: topics every bag holds, whatever ``record_topics`` says (replay needs them; the loop's
 #: topics are silent unless an episode runs in lockstep)
