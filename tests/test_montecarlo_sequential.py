@@ -73,3 +73,25 @@ def test_progress_and_arguments():
     assert all(t == 100 for _, t in seen) and max(d for d, _ in seen) >= r.n_samples
     with pytest.raises(ValueError, match="batch_size"):
         _evaluate(SyntheticBackend(), batch_size=0)
+
+
+def test_groups_spread_over_the_workers():
+    assert mc.group_size_for(8, 2) == 4 and mc.group_size_for(3, 2) == 2
+    assert mc.group_size_for(1000, 2) == mc.GROUP_SIZE and mc.group_size_for(0, 2) == 1
+    assert mc.group_size_for(5, 1, group_size=4) == 4
+
+
+def test_a_pool_draws_one_sample_per_lane_at_a_time(tmp_path):
+    """Real episodes on two worker processes: a design that can only fail (closing never
+    triggers within the horizon) is decided at its third sample; the pool draws one batch
+    of one sample per lane of each worker, not a refill's worth more."""
+    from tethernet_ros.core.batch import choose_lanes
+
+    never = SimConfig(settle_time=2.0, horizon=1.0)
+    path = tmp_path / "samples.jsonl"
+    with mc.ProcessPoolBackend(2) as be:
+        size = be.batch_size
+        r = mc.evaluate(DESIGN, 100, 1, config=never, backend=be, stop=RULE, results_path=path)
+    assert size == 2 * min(mc.GROUP_SIZE, choose_lanes())
+    assert r.n_samples == 3 and r.failures == 3
+    assert len(sample_lines(path)) == -(-3 // size) * size

@@ -26,7 +26,8 @@ evaluate.py        evaluate, evaluate_many; sequential sampling with a stopping 
 
 Everything public is importable from ``tethernet_ros.montecarlo`` itself.
 """
-from .backends import EpisodeBackend, InProcessBackend, Outcome, default_workers, error_text
+from .backends import (GROUP_SIZE, EpisodeBackend, InProcessBackend, Outcome, default_workers,
+                       error_text, group_size_for)
 from .dask_backend import DaskBackend
 from .evaluate import ProgressFn, RunSpec, StopRule, evaluate, evaluate_many
 from .keys import model_version, run_key
@@ -41,10 +42,11 @@ from .worker import FAULT_ENV, run_group, run_task, warm_worker
 
 
 __all__ = [
-    "DaskBackend", "EpisodeBackend", "EpisodeTask", "FAULT_ENV", "InProcessBackend",
+    "DaskBackend", "EpisodeBackend", "EpisodeTask", "FAULT_ENV", "GROUP_SIZE", "InProcessBackend",
     "MonteCarloResult", "Outcome", "ProcessPoolBackend", "ProgressFn", "RECORD_VERSION",
     "ResultsFile", "RunSpec", "SEED_STRIDE", "SampleResult", "StopRule", "TRACE_FIELDS",
     "default_workers", "error_text", "evaluate", "evaluate_many", "failure_category",
+    "group_size_for",
     "make_backend", "model_version", "run_group", "run_key", "run_task", "run_tasks",
     "sample_result",
     "sample_seed", "warm_worker", "worker_error_result",

@@ -17,7 +17,8 @@ from .records import EpisodeTask, SampleResult
 from .worker import iter_group, same_batch
 
 #: tasks a worker process takes at once, as one group on the batched kernel (its lanes
-#: refill from the group)
+#: refill from the group); fewer when a map's tasks spread over the workers need fewer
+#: (:func:`group_size_for`)
 GROUP_SIZE = 8
 
 
@@ -66,7 +67,10 @@ class EpisodeBackend(abc.ABC):
 
     @property
     def batch_size(self) -> int:
-        """Samples a sequential sampler should draw at a time to keep every lane busy."""
+        """Samples a sequential sampler draws at a time: one per lane of every worker.
+        More would keep the lanes refilled, but every sample drawn past the decision is
+        an episode spent for nothing (docs/studies/step.md, "Samples per batch": with 8
+        per worker, a Case 1 design decided by its third failure drew 16 samples for 3)."""
         return self.workers
 
     @abc.abstractmethod
@@ -85,6 +89,13 @@ class EpisodeBackend(abc.ABC):
 
     def __exit__(self, *exc):
         self.close()
+
+
+def group_size_for(n_tasks: int, workers: int, group_size: int = GROUP_SIZE) -> int:
+    """Tasks per group when ``n_tasks`` go to ``workers`` worker processes: at most
+    ``group_size``, and few enough that every worker gets a group (8 tasks on 2 workers:
+    two groups of 4, not one of 8 and an idle worker)."""
+    return max(1, min(int(group_size), -(-int(n_tasks) // max(1, int(workers)))))
 
 
 def chunk_tasks(tasks, size: int) -> list[list[EpisodeTask]]:
@@ -123,6 +134,11 @@ class InProcessBackend(EpisodeBackend):
 
     @property
     def batch_size(self) -> int:
+        return self.lane_count
+
+    @property
+    def lane_count(self) -> int:
+        """Lanes of the batched kernel (``lanes``, else chosen per CPU)."""
         if self.lanes:
             return int(self.lanes)
         from ..core.batch import choose_lanes

@@ -4,7 +4,7 @@ from __future__ import annotations
 from collections import deque
 
 from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
-                       error_text, group_outcomes)
+                       error_text, group_outcomes, group_size_for)
 from .worker import run_group, warm_worker
 
 
@@ -34,7 +34,10 @@ class DaskBackend(EpisodeBackend):
 
     @property
     def batch_size(self) -> int:
-        return self.workers * self.group_size
+        """One sample per lane of every worker thread (EpisodeBackend.batch_size; the lanes
+        as this machine's CPU chooses them)."""
+        from ..core.batch import choose_lanes
+        return self.workers * min(self.group_size, choose_lanes())
 
     def describe(self) -> str:
         where = self.scheduler or "local cluster"
@@ -65,7 +68,10 @@ class DaskBackend(EpisodeBackend):
 
         self.start()
         client = self._client
-        pending = deque(chunk_tasks(tasks, 1 if max_in_flight == 1 else self.group_size))
+        tasks = list(tasks)
+        size = 1 if max_in_flight == 1 else group_size_for(len(tasks), self.workers,
+                                                           self.group_size)
+        pending = deque(chunk_tasks(tasks, size))
         limit = max_in_flight or max(len(pending), 1)
         ac = as_completed()
         inflight = {}

@@ -4,7 +4,7 @@ from __future__ import annotations
 from collections import deque
 
 from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
-                       error_text, group_outcomes)
+                       error_text, group_outcomes, group_size_for)
 from .worker import run_group, warm_worker
 
 
@@ -53,14 +53,18 @@ class ProcessPoolBackend(EpisodeBackend):
 
     @property
     def batch_size(self) -> int:
-        return self.workers * self.group_size
+        """One sample per lane of every worker (EpisodeBackend.batch_size); the lanes are
+        chosen per CPU (core.batch.choose_lanes, measured here as in the workers)."""
+        from ..core.batch import choose_lanes
+        return self.workers * min(self.group_size, choose_lanes())
 
     def map(self, tasks, max_in_flight=None):
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
-        size = 1 if max_in_flight == 1 else self.group_size
+        tasks = list(tasks)
         limit = max(1, min(max_in_flight or self.workers, self.workers))
+        size = 1 if max_in_flight == 1 else group_size_for(len(tasks), limit, self.group_size)
         pending = deque(chunk_tasks(tasks, size))
         inflight = {}
         try:
