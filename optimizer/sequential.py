@@ -91,6 +91,26 @@ class SequentialRule:
                 return m
         return None
 
+    def expected_to_decide(self, successes: Sequence[bool]) -> float:
+        """How many more samples the decision is expected to take, from the successes so
+        far (index order): the rate p = (k + 1) / (m + 2) (Laplace) gives the expected
+        draws to the failure that makes the design infeasible, (F + 1 - f) / (1 - p), and
+        to the sample that makes it feasible (with ``stop_when_feasible``; else to the
+        n-th), (n - F + f - m) / p; the smaller, at most the samples left.  It sizes the
+        evaluator's batches (:func:`tethernet_ros.montecarlo.evaluate`), never the result.
+        """
+        n, f_max = int(self.n_samples), self.allowed_failures
+        m = min(len(successes), n)
+        k = sum(1 for ok in successes[:m] if ok)
+        f = m - k
+        left = n - m
+        if left <= 0 or self(successes) is not None:
+            return 0.0
+        p = (k + 1) / (m + 2)
+        to_infeasible = (f_max + 1 - f) / (1 - p)
+        to_feasible = (n - f_max + f - m) / p if self.stop_when_feasible else left
+        return float(min(to_infeasible, max(to_feasible, 1.0), left))
+
     def verdict(self, successes: Sequence[bool]) -> str:
         """'infeasible' or 'feasible' for samples that decide (see :meth:`__call__`),
         '' when they do not."""

@@ -83,15 +83,42 @@ def test_groups_spread_over_the_workers():
 
 def test_a_pool_draws_one_sample_per_lane_at_a_time(tmp_path):
     """Real episodes on two worker processes: a design that can only fail (closing never
-    triggers within the horizon) is decided at its third sample; the pool draws one batch
-    of one sample per lane of each worker, not a refill's worth more."""
+    triggers within the horizon) is decided at its third sample; the pool draws one batch:
+    the 6 samples the rule expects a decision to take at the start (3 failures at rate
+    1/2), or one per lane of each worker if that is more, not a refill's worth more."""
     from tethernet_ros.core.batch import choose_lanes
 
     never = SimConfig(settle_time=2.0, horizon=1.0)
     path = tmp_path / "samples.jsonl"
     with mc.ProcessPoolBackend(2) as be:
-        size = be.batch_size
+        size, most = be.batch_size, be.max_batch_size
         r = mc.evaluate(DESIGN, 100, 1, config=never, backend=be, stop=RULE, results_path=path)
-    assert size == 2 * min(mc.GROUP_SIZE, choose_lanes())
+    assert size == 2 * min(mc.GROUP_SIZE, choose_lanes()) and most == 2 * mc.GROUP_SIZE
     assert r.n_samples == 3 and r.failures == 3
-    assert len(sample_lines(path)) == -(-3 // size) * size
+    assert len(sample_lines(path)) == max(size, 6)
+
+
+class RefillingBackend(SyntheticBackend):
+    """A synthetic backend of 4 lanes that may take up to 16 samples at a time."""
+
+    @property
+    def max_batch_size(self) -> int:
+        return 16
+
+
+def test_batches_follow_the_expected_samples_to_a_decision_and_change_nothing():
+    rule = SequentialRule(100, 0.98, stop_when_feasible=False)
+    assert rule.expected_to_decide([]) == pytest.approx(6.0)          # p = 1/2: 3 / (1/2)
+    assert rule.expected_to_decide([True] * 20) == pytest.approx(66.0)  # 3 / (1/22)
+    assert rule.expected_to_decide([False] * 3) == 0.0                  # decided
+    assert SequentialRule(100, 0.98).expected_to_decide([True] * 90) == pytest.approx(
+        8 / (91 / 92))                                                   # to the 98th success
+    good = REFERENCE_DESIGNS["suboptimal"]                 # synthetic P_s > 0.999
+    for design in (DESIGN, good):
+        fixed, refill = SyntheticBackend(workers=4), RefillingBackend(workers=4)
+        a = mc.evaluate(design, 100, 1, config=CFG, backend=fixed, stop=rule)
+        b = mc.evaluate(design, 100, 1, config=CFG, backend=refill, stop=rule)
+        assert [s.outcome() for s in a.samples] == [s.outcome() for s in b.samples]
+        assert set(fixed.batches) <= {4} and max(refill.batches) <= 16
+    assert refill.batches[:2] == [6, 16]           # the good design: 6 to start, then 16
+    assert len(refill.batches) < len(fixed.batches)

@@ -73,6 +73,12 @@ class EpisodeBackend(abc.ABC):
         per worker, a Case 1 design decided by its third failure drew 16 samples for 3)."""
         return self.workers
 
+    @property
+    def max_batch_size(self) -> int:
+        """The most samples a sequential sampler draws at a time, when its rule expects its
+        decision to take that many (refilling the lanes as episodes end)."""
+        return self.batch_size
+
     @abc.abstractmethod
     def map(self, tasks: Iterable[EpisodeTask],
             max_in_flight: int | None = None) -> Iterator[Outcome]:

@@ -39,6 +39,10 @@ class DaskBackend(EpisodeBackend):
         from ..core.batch import choose_lanes
         return self.workers * min(self.group_size, choose_lanes())
 
+    @property
+    def max_batch_size(self) -> int:
+        return self.workers * self.group_size
+
     def describe(self) -> str:
         where = self.scheduler or "local cluster"
         return f"dask ({where}, {self.workers} worker thread{'s' if self.workers != 1 else ''})"

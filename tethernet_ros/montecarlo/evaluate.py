@@ -7,15 +7,19 @@ random numbers, :mod:`~tethernet_ros.montecarlo.seeds`) on any
 results file (:mod:`~tethernet_ros.montecarlo.results_file`).
 
 Sequential sampling (``evaluate(..., stop=rule)``): the samples are drawn in batches of
-``batch_size`` (default: the backend's ``batch_size``, enough for every worker's lanes), in index
-order; after each batch ``stop`` sees the successes of the samples drawn so far, in index
-order, and either says how many leading samples decide the estimate or asks for more.
+``batch_size`` (default: the backend's ``batch_size``, one sample per lane of every worker;
+when the rule tells how many more samples its decision is expected to take,
+``rule.expected_to_decide(successes)``, that many, up to the backend's
+``max_batch_size``, which keeps the lanes refilled), in index order; after each batch
+``stop`` sees the successes of the samples drawn so far, in index order, and either says
+how many leading samples decide the estimate or asks for more.
 The result then rests on exactly those leading samples, so it is the same whatever the
 batch size, worker count or backend (samples drawn past the decision point only cost
 time; they stay in the results file and are reused by a later run).
 """
 from __future__ import annotations
 
+import math
 import sys
 import time
 from dataclasses import dataclass, field, replace
@@ -175,6 +179,19 @@ def evaluate_many(specs: Sequence[RunSpec], n_samples: int, base_seed: int = 0,
     return out
 
 
+def _batch_for(backend: EpisodeBackend | None, stop: StopRule, successes: list) -> int:
+    """Samples to draw next (module docstring): the backend's batch_size, or as many as
+    the rule expects its decision to take, up to the backend's max_batch_size."""
+    if backend is None:
+        return default_workers() * GROUP_SIZE
+    least = int(backend.batch_size)
+    expected = getattr(stop, "expected_to_decide", None)
+    if expected is None:
+        return least
+    most = max(least, int(backend.max_batch_size))
+    return max(least, min(most, math.ceil(expected(successes))))
+
+
 def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
                          backend: EpisodeBackend | None, stop: StopRule,
                          batch_size: int | None, *, results_path, record_trace: bool,
@@ -197,8 +214,7 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     try:
         while decided is None and len(samples) < n_samples:
             start = len(samples)
-            size = int(batch_size or (be.batch_size if be is not None
-                                      else default_workers() * GROUP_SIZE))
+            size = int(batch_size or _batch_for(be, stop, [r.success for r in samples]))
             batch: dict[int, SampleResult] = {}
             tasks = []
             for i in range(start, min(start + size, n_samples)):

@@ -58,6 +58,10 @@ class ProcessPoolBackend(EpisodeBackend):
         from ..core.batch import choose_lanes
         return self.workers * min(self.group_size, choose_lanes())
 
+    @property
+    def max_batch_size(self) -> int:
+        return self.workers * self.group_size
+
     def map(self, tasks, max_in_flight=None):
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
