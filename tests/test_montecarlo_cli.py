@@ -129,3 +129,53 @@ def test_sensitivity_csv_and_png(tmp_path):
     assert bad.returncode == 2 and "--scales" in bad.stderr
     bad = tethernet("sensitivity", "--design", "time-min", "--sources", "wind")
     assert bad.returncode == 2 and "unknown noise source" in bad.stderr
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for task in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{task}/children") as f:
+                out += [int(c) for c in f.read().split()]
+        except OSError:
+            pass
+    return out
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_stops_the_workers_and_keeps_the_samples(tmp_path):
+    """SIGTERM to the command (a scheduler's or a user's kill) stops it as Ctrl-C does: exit
+    143 within seconds, no worker process left running its group, the samples it finished
+    in the results file for a resume."""
+    import signal
+    import time
+
+    res = tmp_path / "v.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "tethernet_ros.cli", "validate", "--design",
+                             "time-min", "--samples", "200", "--workers", "2", "--results",
+                             str(res), "--no-progress"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 240
+        while not (res.exists() and sample_lines(res)) and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.2)
+        assert sample_lines(res), "no sample finished in 240 s"
+        workers = _children(proc.pid)
+        assert workers
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=30)
+        assert proc.returncode == 143 and "validate: terminated" in err, err
+        assert time.monotonic() - t0 < 15           # a group of 8 episodes takes about 30 s
+        time.sleep(0.5)
+        assert [w for w in workers if os.path.exists(f"/proc/{w}")
+                and "Z" not in open(f"/proc/{w}/stat").read().split()[2]] == []
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    done = len(sample_lines(res))
+    assert 1 <= done < 200
+    again = tethernet("validate", "--design", "time-min", "--samples", str(done), "--workers", "1",
+                      "--results", str(res), "--json", "--no-progress")
+    assert again.returncode == 0 and json.loads(again.stdout)["samples"] == done

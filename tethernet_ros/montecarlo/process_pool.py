@@ -102,9 +102,26 @@ class ProcessPoolBackend(EpisodeBackend):
                             yield Outcome(task, error=error_text(exc))
                 if broken:
                     self._drop_pool()
+        except KeyboardInterrupt:
+            self.terminate()            # Ctrl-C or SIGTERM: do not wait for the groups
+            raise
         finally:
             for fut in inflight:
                 fut.cancel()
+
+    def terminate(self) -> None:
+        """Stop the workers now (SIGTERM to each), dropping what they run; the pool is
+        started again at the next ``map``."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for p in procs:
+            if p.is_alive():
+                p.terminate()
+        for p in procs:
+            p.join(timeout=5.0)
 
     def close(self):
         self._drop_pool()
