@@ -1,0 +1,116 @@
+"""A cost model of sequential sampling's batch size, replayed on finished optimisation
+histories (an estimate, not a measurement: benchmarks/bench_sequential_batch.py measures).
+
+    .venv/bin/python benchmarks/model_sequential_batch.py [HISTORY.csv ...]
+
+Each design of a history (default: docs/cases/case1-history.csv and case2-history.csv)
+becomes a sequence of samples: its decisive samples with its failures at random places
+(an infeasible design's last sample its third failure), then 40 more at its observed
+rate; each episode lasts its design's mean T at 1 ms steps with a 15 % spread (seed 1).
+Two workers of 4 lanes run each batch, a worker's tasks on its lanes, refilled as lanes
+end, the batch halving once at most half its lanes are busy and none is left to start; a
+batch of k lanes costs the measured per-lane-step times of docs/studies/step.md (K = 1
+29.8 us, K = 4 23.6; K = 2 taken as 26.7).  A batch's wall time is its slower worker's.
+Prints wall and CPU hours, episodes drawn, and the ratios to 16 per batch.
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+import random
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+COST = {1: 29.8, 2: 2 * 26.7, 4: 4 * 23.6}        # us per batch-step of k lanes
+LANES, WORKERS, N, F_MAX = 4, 2, 100, 2
+
+
+def worker_time(steps: list[int]) -> float:
+    feed = list(steps)
+    if not feed:
+        return 0.0
+    k = min(LANES, 1 << (len(feed) - 1).bit_length())
+    busy = [feed.pop(0) for _ in range(min(k, len(feed)))]
+    t = 0.0
+    while busy:
+        m = min(busy)
+        t += m * COST[k]
+        busy = [b - m for b in busy if b > m]
+        while feed and len(busy) < k:
+            busy.append(feed.pop(0))
+        while not feed and k > 1 and len(busy) <= k // 2:
+            k //= 2
+    return t
+
+
+def decided(succ: list[bool]) -> int | None:
+    f = 0
+    for m, ok in enumerate(succ, 1):
+        f += not ok
+        if f > F_MAX or f + (N - m) <= F_MAX or m == N:
+            return m
+    return None
+
+
+def expected(m: int, k: int) -> float:
+    """SequentialRule.expected_to_decide for N = 100, F = 2, stopping when feasible."""
+    f, p = m - k, (k + 1) / (m + 2)
+    return min((F_MAX + 1 - f) / (1 - p), max((N - F_MAX + f - m) / p, 1.0), N - m)
+
+
+POLICIES = {
+    "16 per batch": lambda m, k: 16,
+    "8 per batch": lambda m, k: 8,
+    "4 per batch": lambda m, k: 4,
+    "expected, 4 to 16": lambda m, k: max(4, min(16, math.ceil(expected(m, k)))),
+    "expected, 8 to 16": lambda m, k: max(8, min(16, math.ceil(expected(m, k)))),
+}
+
+
+def replay(designs, policy) -> tuple[float, float, int]:
+    wall = cpu = 0.0
+    drawn = 0
+    for succ, steps in designs:
+        m = 0
+        while m < len(succ):
+            b = min(policy(m, sum(succ[:m])), len(succ) - m)
+            per = math.ceil(b / WORKERS)
+            times = [worker_time(steps[i:i + per]) for i in range(m, m + b, per)]
+            wall, cpu, drawn, m = wall + max(times), cpu + sum(times), drawn + b, m + b
+            if decided(succ[:m]) is not None:
+                break
+    return wall / 3.6e9, cpu / 3.6e9, drawn
+
+
+def designs_of(path: str, rng: random.Random):
+    out = []
+    with open(path) as f:
+        for r in csv.DictReader(f):
+            n, s = int(r["samples"]), int(r["successes"])
+            t = float(r["mean_completion_time"] or 120.0)
+            fails = set(rng.sample(range(n - 1), 2)) | {n - 1} if n - s > F_MAX \
+                else set(rng.sample(range(n), n - s))
+            succ = [i not in fails for i in range(n)] + [rng.random() < s / n for _ in range(40)]
+            out.append((succ, [max(1000, int(rng.gauss(t, 0.15 * t) * 1000)) for _ in succ]))
+    return out
+
+
+def main(argv=None) -> int:
+    paths = (argv if argv is not None else sys.argv[1:]) or [
+        os.path.join(ROOT, "docs/cases/case1-history.csv"),
+        os.path.join(ROOT, "docs/cases/case2-history.csv")]
+    for path in paths:
+        designs = designs_of(path, random.Random(1))
+        print(f"{path}: {len(designs)} designs, {sum(decided(s) for s, _ in designs)} decisive samples")
+        base = None
+        for name, policy in POLICIES.items():
+            w, c, d = replay(designs, policy)
+            base = base or (w, c)
+            print(f"  {name:18s} wall {w:5.2f} h  CPU {c:5.2f} h  episodes {d:6d}  "
+                  f"wall / 16: {w / base[0]:.3f}  CPU / 16: {c / base[1]:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
