@@ -106,9 +106,11 @@ class SequentialRule:
         left = n - m
         if left <= 0 or self(successes) is not None:
             return 0.0
-        p = (k + 1) / (m + 2)
-        to_infeasible = (f_max + 1 - f) / (1 - p)
-        to_feasible = (n - f_max + f - m) / p if self.stop_when_feasible else left
+        # p = (k + 1) / (m + 2), 1 - p = (f + 1) / (m + 2); integer divisions, so that an
+        # integer expectation is exact (the caller rounds up)
+        to_infeasible = (f_max + 1 - f) * (m + 2) / (f + 1)
+        to_feasible = ((n - f_max + f - m) * (m + 2) / (k + 1) if self.stop_when_feasible
+                       else left)
         return float(min(to_infeasible, max(to_feasible, 1.0), left))
 
     def verdict(self, successes: Sequence[bool]) -> str:

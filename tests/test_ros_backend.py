@@ -63,7 +63,8 @@ def test_controller_identity_follows_its_source(tmp_path, monkeypatch):
     assert controller_identity("my_ctl:Ctl") == before
     (tmp_path / "my_ctl.py").write_text("class Ctl:\n    pass  # edited\n")
     assert controller_identity("my_ctl:Ctl") not in (before, "my_ctl:Ctl")
-    assert controller_identity("no_such_module_here:Ctl") == "no_such_module_here:Ctl"
+    with pytest.warns(UserWarning, match="no source file found"):
+        assert controller_identity("no_such_module_here:Ctl") == "no_such_module_here:Ctl"
     assert RosBackend(bag_dir=tmp_path).episode_source is None
     assert RosBackend(bag_dir=tmp_path, lockstep=True).episode_source is None
 

@@ -64,8 +64,9 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.formatwarning = _one_line_warning
+    previous = None
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _raise_terminated)
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         return int(args._run(args) or 0)
     except _user_errors() as exc:
@@ -76,6 +77,9 @@ def main(argv=None) -> int:
         print(f"tethernet {args.command}: {'terminated' if terminated else 'interrupted'}",
               file=sys.stderr)
         return 143 if terminated else 130
+    finally:
+        if previous is not None:               # main() called in-process (tests, scripts)
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 from ..core.config import SimConfig
 from ..core.design import Design
 from ..core.noise import NoiseModel
-from .backends import GROUP_SIZE, EpisodeBackend, InProcessBackend, default_workers
+from .backends import EpisodeBackend, InProcessBackend
 from .keys import run_key
 from .process_pool import ProcessPoolBackend
 from .records import EpisodeTask, SampleResult
@@ -179,11 +179,9 @@ def evaluate_many(specs: Sequence[RunSpec], n_samples: int, base_seed: int = 0,
     return out
 
 
-def _batch_for(backend: EpisodeBackend | None, stop: StopRule, successes: list) -> int:
+def _batch_for(backend: EpisodeBackend, stop: StopRule, successes: list) -> int:
     """Samples to draw next (module docstring): the backend's batch_size, or as many as
     the rule expects its decision to take, up to the backend's max_batch_size."""
-    if backend is None:
-        return default_workers() * GROUP_SIZE
     least = int(backend.batch_size)
     expected = getattr(stop, "expected_to_decide", None)
     if expected is None:
@@ -209,7 +207,9 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     extras = {key: _extra(spec)}
     samples: list[SampleResult] = []   # samples 0..len-1, in index order
     from_file: set[int] = set()
-    be, own = backend, False
+    # a pool of our own starts with its first map (none if the file holds every sample)
+    be, own = (backend, False) if backend is not None else (ProcessPoolBackend(), True)
+    simulated = False
     decided = None
     try:
         while decided is None and len(samples) < n_samples:
@@ -228,8 +228,7 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
                                              spec.config, record_trace))
             if progress is not None:
                 progress(start + len(batch), n_samples, None)
-            if tasks and be is None:
-                be, own = ProcessPoolBackend(), True
+            simulated = simulated or bool(tasks)
             for r in _simulate(be, tasks, retries, rfile, extras):
                 batch[r.index] = r
                 if progress is not None:
@@ -243,4 +242,5 @@ def _evaluate_sequential(spec: RunSpec, n_samples: int, base_seed: int,
     return MonteCarloResult.from_samples(
         spec.design, used, base_seed, key, spec.config, label=spec.label,
         reused=sum(1 for r in used if r.index in from_file), wall_time=time.perf_counter() - t0,
-        backend=(be or InProcessBackend()).describe(), noise_scales=_changed_scales(spec))
+        backend=(be if (simulated or not own) else InProcessBackend()).describe(),
+        noise_scales=_changed_scales(spec))

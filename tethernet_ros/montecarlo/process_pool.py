@@ -53,8 +53,10 @@ class ProcessPoolBackend(EpisodeBackend):
 
     @property
     def batch_size(self) -> int:
-        """One sample per lane of every worker (EpisodeBackend.batch_size); the lanes are
-        chosen per CPU (core.batch.choose_lanes, measured here as in the workers)."""
+        """One sample per lane of every worker (EpisodeBackend.batch_size); the lanes as
+        core.batch.choose_lanes picks them for the default configuration in this process
+        (each worker measures its own, which a loaded machine may make differ: only the
+        batch size, never a result, depends on it)."""
         from ..core.batch import choose_lanes
         return self.workers * min(self.group_size, choose_lanes())
 
@@ -108,6 +110,10 @@ class ProcessPoolBackend(EpisodeBackend):
         finally:
             for fut in inflight:
                 fut.cancel()
+            if any(not fut.done() for fut in inflight):
+                # left with groups running (the consumer raised, e.g. Ctrl-C while it
+                # wrote a result, and closed this generator): stop them, do not wait
+                self.terminate()
 
     def terminate(self) -> None:
         """Stop the workers now (SIGTERM to each), dropping what they run; the pool is

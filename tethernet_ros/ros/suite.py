@@ -25,6 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 from ..core.config import SimConfig
@@ -121,14 +122,16 @@ def controller_command(spec: str) -> list[str]:
 def controller_identity(spec: str) -> str:
     """What identifies a user's controller in a run key: its spec and the SHA-256 (16 hex
     digits) of its source, so that editing the controller starts new samples.  Source:
-    for ``module:Class``, the module's file, looked up in ``PYTHONPATH`` (the environment
-    the controller will run in) and then this process's path; for an executable, its own
-    file (a console script's entry module is not followed).  The spec alone if neither is
-    found."""
+    for ``module:Class``, the module's file, looked up as the controller host will import
+    it (``python -m``: the working directory, then ``PYTHONPATH``, then this process's
+    path); for an executable, its own file (a console script's entry module is not
+    followed: edit such a controller and its samples keep their key).  The spec alone, with
+    a warning, if no file is found."""
     if ":" in spec and os.path.sep not in spec:
         module = spec.split(":", 1)[0]
         rel = Path(*module.split("."))
-        roots = [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p] + sys.path
+        roots = ([os.getcwd()] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
+                                  if p] + sys.path)
         files = (Path(root or ".") / r for root in roots
                  for r in (rel.with_suffix(".py"), rel / "__init__.py"))
         source = next((f for f in files if f.is_file()), None)
@@ -138,6 +141,8 @@ def controller_identity(spec: str) -> str:
         except RosCaptureError:
             source = None
     if source is None:
+        warnings.warn(f"controller {spec!r}: no source file found to identify it by; its "
+                      "samples are keyed by its name alone", stacklevel=2)
         return spec
     return f"{spec} sha256:{hashlib.sha256(source.read_bytes()).hexdigest()[:16]}"
 

@@ -16,6 +16,7 @@ true measurement that comes before the episode's commands is kept until they are
 """
 from __future__ import annotations
 
+import time
 from collections import deque
 
 from rclpy.node import Node
@@ -103,10 +104,12 @@ class SensorNode(Node):
             self.get_logger().error(f"episode {setup.episode_id!r}: {exc}")
             return
         # every subscriber the graph shows (the controller, the recorder) matched before
-        # the first measurement goes out
+        # the first measurement goes out; match_timeout for the four topics together (the
+        # simulation allows its own match_timeout more for the episode's first decision)
+        deadline = time.monotonic() + float(param(self, "match_timeout"))
         for pub in (self.pub_measurement, self.pub_pose, self.pub_twist, self.pub_point):
             want = self.count_subscribers(pub.topic_name)
-            if want and not wait_for_subscribers(pub, want, float(param(self, "match_timeout")),
+            if want and not wait_for_subscribers(pub, want, max(0.0, deadline - time.monotonic()),
                                                  self.context):
                 self.get_logger().warning(f"{pub.topic_name}: {pub.get_subscription_count()} "
                                           f"of {want} subscribers matched at the start")
