@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import abc
 import os
+from collections import deque
 from dataclasses import dataclass
 from collections.abc import Iterable, Iterator
 
@@ -104,6 +105,33 @@ def group_size_for(n_tasks: int, workers: int, group_size: int = GROUP_SIZE) -> 
     return max(1, min(int(group_size), -(-int(n_tasks) // max(1, int(workers)))))
 
 
+class GroupedBackend(EpisodeBackend):
+    """A backend whose workers each take groups of up to ``group_size`` tasks of one design
+    on the batched kernel (the process pool, Dask).  A sequential sampler draws one sample
+    per lane of every worker (the lanes as ``core.batch.choose_lanes`` picks them for the
+    default configuration in this process; each worker measures its own, which a loaded
+    machine may make differ: only the batch size, never a result, depends on it), up to a
+    whole group per worker."""
+
+    group_size = GROUP_SIZE
+
+    @property
+    def batch_size(self) -> int:
+        from ..core.batch import choose_lanes
+        return self.workers * min(self.group_size, choose_lanes())
+
+    @property
+    def max_batch_size(self) -> int:
+        return self.workers * self.group_size
+
+    def groups(self, tasks, workers: int, max_in_flight: int | None) -> deque:
+        """The tasks of a map as groups spread over ``workers`` (one task a group when
+        ``max_in_flight`` is 1)."""
+        tasks = list(tasks)
+        size = 1 if max_in_flight == 1 else group_size_for(len(tasks), workers, self.group_size)
+        return deque(chunk_tasks(tasks, size))
+
+
 def chunk_tasks(tasks, size: int) -> list[list[EpisodeTask]]:
     """Consecutive tasks that can share a batch, in groups of at most ``size``."""
     out: list[list[EpisodeTask]] = []
@@ -140,11 +168,6 @@ class InProcessBackend(EpisodeBackend):
 
     @property
     def batch_size(self) -> int:
-        return self.lane_count
-
-    @property
-    def lane_count(self) -> int:
-        """Lanes of the batched kernel (``lanes``, else chosen per CPU)."""
         if self.lanes:
             return int(self.lanes)
         from ..core.batch import choose_lanes

@@ -1,14 +1,12 @@
 """A dask.distributed cluster: :class:`DaskBackend`."""
 from __future__ import annotations
 
-from collections import deque
-
-from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
-                       error_text, group_outcomes, group_size_for)
+from .backends import (GROUP_SIZE, GroupedBackend, Outcome, default_workers, error_text,
+                       group_outcomes)
 from .worker import run_group, warm_worker
 
 
-class DaskBackend(EpisodeBackend):
+class DaskBackend(GroupedBackend):
     """A dask.distributed cluster: ``scheduler`` is an address ('tcp://host:8786') or
     None / 'local' for a LocalCluster of ``workers`` single-threaded worker processes
     (no dashboard).  Workers need tethernet_ros importable and are warmed with
@@ -31,17 +29,6 @@ class DaskBackend(EpisodeBackend):
         if self._client is None:
             return self._n
         return max(1, sum(self._client.nthreads().values()))
-
-    @property
-    def batch_size(self) -> int:
-        """One sample per lane of every worker thread (EpisodeBackend.batch_size; the lanes
-        as this machine's CPU chooses them)."""
-        from ..core.batch import choose_lanes
-        return self.workers * min(self.group_size, choose_lanes())
-
-    @property
-    def max_batch_size(self) -> int:
-        return self.workers * self.group_size
 
     def describe(self) -> str:
         where = self.scheduler or "local cluster"
@@ -72,10 +59,7 @@ class DaskBackend(EpisodeBackend):
 
         self.start()
         client = self._client
-        tasks = list(tasks)
-        size = 1 if max_in_flight == 1 else group_size_for(len(tasks), self.workers,
-                                                           self.group_size)
-        pending = deque(chunk_tasks(tasks, size))
+        pending = self.groups(tasks, self.workers, max_in_flight)
         limit = max_in_flight or max(len(pending), 1)
         ac = as_completed()
         inflight = {}

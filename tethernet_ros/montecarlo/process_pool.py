@@ -1,14 +1,12 @@
 """Local worker processes: :class:`ProcessPoolBackend` (concurrent.futures)."""
 from __future__ import annotations
 
-from collections import deque
-
-from .backends import (GROUP_SIZE, EpisodeBackend, Outcome, chunk_tasks, default_workers,
-                       error_text, group_outcomes, group_size_for)
+from .backends import (GROUP_SIZE, GroupedBackend, Outcome, default_workers, error_text,
+                       group_outcomes)
 from .worker import run_group, warm_worker
 
 
-class ProcessPoolBackend(EpisodeBackend):
+class ProcessPoolBackend(GroupedBackend):
     """Local worker processes (concurrent.futures, 'spawn' context by default: no forked
     numba/LLVM or ROS state).  Each worker loads the numba cache once at start
     (:func:`warm_worker`) and runs groups of up to ``group_size`` tasks of one design on the
@@ -51,27 +49,12 @@ class ProcessPoolBackend(EpisodeBackend):
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
-    @property
-    def batch_size(self) -> int:
-        """One sample per lane of every worker (EpisodeBackend.batch_size); the lanes as
-        core.batch.choose_lanes picks them for the default configuration in this process
-        (each worker measures its own, which a loaded machine may make differ: only the
-        batch size, never a result, depends on it)."""
-        from ..core.batch import choose_lanes
-        return self.workers * min(self.group_size, choose_lanes())
-
-    @property
-    def max_batch_size(self) -> int:
-        return self.workers * self.group_size
-
     def map(self, tasks, max_in_flight=None):
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
 
-        tasks = list(tasks)
         limit = max(1, min(max_in_flight or self.workers, self.workers))
-        size = 1 if max_in_flight == 1 else group_size_for(len(tasks), limit, self.group_size)
-        pending = deque(chunk_tasks(tasks, size))
+        pending = self.groups(tasks, limit, max_in_flight)
         inflight = {}
         try:
             while pending or inflight:

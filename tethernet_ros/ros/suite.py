@@ -105,11 +105,16 @@ def node_parameters(config: SimConfig, noise_model: NoiseModel | None, bag_dir: 
     return params
 
 
+def _is_module_spec(spec: str) -> bool:
+    """Whether a controller spec is ``module:Class`` (else an executable's name or path)."""
+    return ":" in spec and os.path.sep not in spec
+
+
 def controller_command(spec: str) -> list[str]:
     """The command line of a user's controller: ``module:Class`` (a Node class, run by
     controller_host) or the name or path of an executable (a console script: this
     environment's bin/ first, then PATH).  Raises RosCaptureError if there is none."""
-    if ":" in spec and os.path.sep not in spec:
+    if _is_module_spec(spec):
         return [sys.executable, "-m", "tethernet_ros.ros.controller_host", spec]
     path = shutil.which(spec, path=os.pathsep.join([str(Path(sys.executable).parent),
                                                     os.environ.get("PATH", "")]))
@@ -127,7 +132,7 @@ def controller_identity(spec: str) -> str:
     path); for an executable, its own file (a console script's entry module is not
     followed: edit such a controller and its samples keep their key).  The spec alone, with
     a warning, if no file is found."""
-    if ":" in spec and os.path.sep not in spec:
+    if _is_module_spec(spec):
         module = spec.split(":", 1)[0]
         rel = Path(*module.split("."))
         roots = ([os.getcwd()] + [p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
