@@ -22,8 +22,14 @@ import random
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+from optimizer.sequential import SequentialRule  # noqa: E402
+
 COST = {1: 29.8, 2: 2 * 26.7, 4: 4 * 23.6}        # us per batch-step of k lanes
-LANES, WORKERS, N, F_MAX = 4, 2, 100, 2
+LANES, WORKERS = 4, 2
+#: the Case 1 rule (N = 100, C_P = 0.98: F = 2, stopping when feasible) for both histories
+RULE = SequentialRule(100, 0.98)
+F_MAX = RULE.allowed_failures
 
 
 def worker_time(steps: list[int]) -> float:
@@ -44,27 +50,12 @@ def worker_time(steps: list[int]) -> float:
     return t
 
 
-def decided(succ: list[bool]) -> int | None:
-    f = 0
-    for m, ok in enumerate(succ, 1):
-        f += not ok
-        if f > F_MAX or f + (N - m) <= F_MAX or m == N:
-            return m
-    return None
-
-
-def expected(m: int, k: int) -> float:
-    """SequentialRule.expected_to_decide for N = 100, F = 2, stopping when feasible."""
-    f, p = m - k, (k + 1) / (m + 2)
-    return min((F_MAX + 1 - f) / (1 - p), max((N - F_MAX + f - m) / p, 1.0), N - m)
-
-
-POLICIES = {
-    "16 per batch": lambda m, k: 16,
-    "8 per batch": lambda m, k: 8,
-    "4 per batch": lambda m, k: 4,
-    "expected, 4 to 16": lambda m, k: max(4, min(16, math.ceil(expected(m, k)))),
-    "expected, 8 to 16": lambda m, k: max(8, min(16, math.ceil(expected(m, k)))),
+POLICIES = {   # samples of the next batch, from the successes so far
+    "16 per batch": lambda succ: 16,
+    "8 per batch": lambda succ: 8,
+    "4 per batch": lambda succ: 4,
+    "expected, 4 to 16": lambda succ: max(4, min(16, math.ceil(RULE.expected_to_decide(succ)))),
+    "expected, 8 to 16": lambda succ: max(8, min(16, math.ceil(RULE.expected_to_decide(succ)))),
 }
 
 
@@ -74,11 +65,11 @@ def replay(designs, policy) -> tuple[float, float, int]:
     for succ, steps in designs:
         m = 0
         while m < len(succ):
-            b = min(policy(m, sum(succ[:m])), len(succ) - m)
+            b = min(policy(succ[:m]), len(succ) - m)
             per = math.ceil(b / WORKERS)
             times = [worker_time(steps[i:i + per]) for i in range(m, m + b, per)]
             wall, cpu, drawn, m = wall + max(times), cpu + sum(times), drawn + b, m + b
-            if decided(succ[:m]) is not None:
+            if RULE(succ[:m]) is not None:
                 break
     return wall / 3.6e9, cpu / 3.6e9, drawn
 
@@ -102,7 +93,7 @@ def main(argv=None) -> int:
         os.path.join(ROOT, "docs/cases/case2-history.csv")]
     for path in paths:
         designs = designs_of(path, random.Random(1))
-        print(f"{path}: {len(designs)} designs, {sum(decided(s) for s, _ in designs)} decisive samples")
+        print(f"{path}: {len(designs)} designs, {sum(RULE(s) for s, _ in designs)} decisive samples")
         base = None
         for name, policy in POLICIES.items():
             w, c, d = replay(designs, policy)
