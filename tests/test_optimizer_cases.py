@@ -227,7 +227,8 @@ def test_candidates_validated_in_turn_until_one_meets_the_requirement(tmp_path):
     Resuming the K = 1 run with K = 6 reuses its validation and gives the same result."""
     kw = dict(iterations=12, seed_points=8, samples=3, validation_samples=200,
               optimizer_options=FAST, validation_stop=False, validation_rule="estimate", **OLD)
-    one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one", **kw)
+    one = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "one",
+                          validation_candidates=1, **kw)
     assert one["validation"]["p_success"] < 0.98 and len(one["table"]) == 1
     assert one["validation"]["meets_requirement"] is False and one["p_threshold"] == 0.98
     assert "does NOT meet the requirement C_P = 0.98" in (tmp_path / "one" / "results.md").read_text()

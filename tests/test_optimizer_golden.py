@@ -82,8 +82,9 @@ SUMMARY_FIELDS = ("evaluations", "feasible_evaluations", "selection_rule", "best
                   "p_success_ci", "successes", "mass", "mean_completion_time", "validation",
                   "table")
 #: the procedure the goldens were recorded with: common random numbers taken as
-#: independent, no racing
-BEFORE = dict(fresh_samples=False, shared_luck=False, racing_candidates=0)
+#: independent, no racing, one design validated
+BEFORE = dict(fresh_samples=False, shared_luck=False, racing_candidates=0,
+              validation_candidates=1)
 #: the runs as recorded (the source's validation rule, which was the default then)
 RUNS = {
     "synthetic-mass": dict(case="mass", iterations=6, seed_points=6, samples=10,

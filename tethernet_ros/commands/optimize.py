@@ -47,10 +47,10 @@ def add_arguments(p):
                    metavar="K",
                    help="validate the ranked designs in turn until one meets P*_s >= 0.98, at "
                         "most K of them, ranking again after each failure with its validation "
-                        f"in the constraint GP's data (default {d.validation_candidates}: the "
-                        "chosen design only; may "
-                        "change on --resume, which then validates a finished run's further "
-                        "candidates)")
+                        "in the constraint GP's data (default: "
+                        f"{NEW_RUN_DEFAULTS['validation_candidates']} for a new run, as "
+                        "recorded for a resumed one; may change on --resume, which then "
+                        "validates a finished run's further candidates)")
     p.add_argument("--validation-rule", choices=("estimate", "wilson"),
                    default=d.validation_rule,
                    help="how a validation meets P*_s >= 0.98: by the lower end of its Wilson "
