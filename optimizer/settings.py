@@ -9,9 +9,9 @@ ones, except the :data:`MUTABLE` ones.
 
 The fields of :data:`NEW_RUN_DEFAULTS` (``validation_candidates``, ``validation_rule``,
 ``validation_stop``, ``racing_candidates``, ``fresh_samples``, ``shared_luck``) take
-``None``, "as the run recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a resumed run the value in its run.json, or, if
-its run.json predates the setting, :data:`RECORDED_DEFAULTS` (what runs did before the
-setting existed).  :meth:`RunSettings.resolved` applies that rule.
+``None``, "as the run recorded it".  A new run then gets :data:`NEW_RUN_DEFAULTS`, a
+resumed run the value in its run.json, or, if its run.json predates the setting,
+:data:`RECORDED_DEFAULTS` (what runs did before the setting existed).  :meth:`RunSettings.resolved` applies that rule.
 """
 from __future__ import annotations
 
