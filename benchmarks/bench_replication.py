@@ -19,6 +19,8 @@ Methods (``--methods``, comma-separated):
   racing+fresh   Wilson rule + racing + fresh samples for every design
   racing+shared  Wilson rule + racing + common random numbers whose shared luck the
                  constraint model takes into account
+  racing+fresh+level  racing+fresh, ranking and clearing against the P*_s at which the
+                 validation passes half the time (``selection_level`` "validation")
   racing         Wilson rule + racing (common random numbers, independent model)
   fresh          Wilson rule + fresh samples (no racing)
   shared         Wilson rule + the shared-luck model (no racing)
@@ -63,6 +65,8 @@ METHODS = {
                    shared_luck=False),
     "racing+fresh": dict(validation_rule="wilson", fresh_samples=True, shared_luck=False),
     "racing+shared": dict(validation_rule="wilson", fresh_samples=False, shared_luck=True),
+    "racing+fresh+level": dict(validation_rule="wilson", fresh_samples=True, shared_luck=False,
+                               selection_level="validation"),
     "racing": dict(validation_rule="wilson", fresh_samples=False, shared_luck=False),
     "fresh": dict(validation_rule="wilson", racing_candidates=0, fresh_samples=True,
                   shared_luck=False),
@@ -192,7 +196,8 @@ def table(records: list[dict], truth: dict, markdown: bool) -> str:
     validation, all) and the validations failed before a pass."""
     head = ["method", "runs", "truly meets C_P [95 %]", "no validation passed",
             "regret mean", "median", "90 %", "episodes: optimisation", "racing",
-            "validation", "all", "validations failed before a pass (mean, max)"]
+            "validation", "all", "validations failed before a pass (mean, max)",
+            "first validation passes"]
     lines = []
     for method in METHODS:
         rs = [r for r in records if r["method"] == method]
@@ -212,7 +217,8 @@ def table(records: list[dict], truth: dict, markdown: bool) -> str:
             f"{_mean(r['episodes_racing'] for r in rs):.0f}",
             f"{_mean(r['episodes_validation'] for r in rs):.0f}",
             f"{_mean(r['episodes_total'] for r in rs):.0f}",
-            f"{_mean(before):.2f}, {max(before) if before else 'n/a'}"])
+            f"{_mean(before):.2f}, {max(before) if before else 'n/a'}",
+            f"{sum(r['validation_passed'] and r['validations_failed'] == 0 for r in rs)}/{n}"])
     margins = ", ".join(f"f*({c:g}) - f*(0.98) = {truth['margins'][str(c)]:.4f}"
                         for c in MARGIN_LEVELS)
     foot = (f"f*(0.98) = {truth['f_star']:.4f} (the true optimum); the margin that "

@@ -359,18 +359,22 @@ class ConstrainedBayesOpt:
         return ranked[0] if ranked else None
 
     def ranked_feasible(self, min_probability: float | None = None,
-                        evidence: Sequence[Observation] = ()) -> list[Observation]:
+                        evidence: Sequence[Observation] = (),
+                        levels: Mapping[str, float] | None = None) -> list[Observation]:
         """The designs :meth:`best_feasible` chooses from, best first: observed feasible
         (and with ``min_probability``, at least that posterior probability of
         feasibility), ordered by observed objective, earlier evaluations first on ties.
         ``evidence``: further observations (e.g. validations of designs of the history)
-        that the constraint GPs are fitted to as well; they are never candidates."""
+        that the constraint GPs are fitted to as well; they are never candidates.
+        ``levels``: thresholds that the posterior probability is taken against instead
+        of the constraints' own (a constraint not named keeps its own)."""
         cand = [i for i, o in enumerate(self.history) if o.feasible]
         if cand and min_probability is not None and self.constraints:
             _, _, _, cons = self._fit_models(self._active_indices(), objective=False,
                                              evidence=evidence)
             U = self.to_unit(np.array([self.history[i].x for i in cand]))
-            pf = np.exp(log_probability_feasible(cons, self.constraints, U))
+            pf = np.exp(log_probability_feasible(cons, {**self.constraints, **(levels or {})},
+                                                 U))
             cand = [i for i, p in zip(cand, pf) if p >= min_probability]
         return sorted((self.history[i] for i in cand), key=lambda o: o.objective)
 

@@ -10,7 +10,7 @@ from .cases import P_SUCCESS, VALIDATION_RULES, validation_rule_text
 from .report import plot_convergence, write_results
 from .racing import RaceResult, race
 from .selection import rank_candidates, validation_evidence
-from .sequential import SequentialRule
+from .sequential import SequentialRule, pass_level
 
 __all__ = ["finish_run", "meets_requirement", "sampling_counts", "Validator", "Choice",
            "choose_design"]
@@ -56,8 +56,18 @@ def _racer(case, opt, problem, settings, results_path, emit):
 
     def racer(candidates):
         return race(candidates, sample, case.p_threshold, settings.racing_round,
-                    settings.racing_budget, max_samples=settings.validation_samples)
+                    settings.racing_budget, max_samples=settings.validation_samples,
+                    clear_level=selection_level(case, settings))
     return racer
+
+
+def selection_level(case, settings) -> float | None:
+    """The P*_s the final ranking and the race are taken against: None (C_P itself) for
+    ``selection_level`` "requirement", else the true P*_s at which the run's validation
+    passes half the time (:func:`optimizer.sequential.pass_level`)."""
+    if settings.selection_level == "requirement" or not settings.validation_samples:
+        return None
+    return pass_level(settings.validation_samples, case.p_threshold, settings.validation_rule)
 
 
 class Validator:
@@ -120,7 +130,8 @@ def choose_design(case, opt, stopped, settings, validator: Validator,
     failed validations as evidence too (module docstring of :mod:`optimizer.selection`);
     the first that meets C_P is the run's result, else the first validated.  Nothing is
     raced or validated when the run was stopped or has no validation samples."""
-    ranked, rule = rank_candidates(opt, settings.min_probability)
+    level = selection_level(case, settings)
+    ranked, rule = rank_candidates(opt, settings.min_probability, level=level)
     choice = Choice(best=ranked[0] if ranked else None, rule=rule)
     if choice.best is None:
         return choice
@@ -129,7 +140,7 @@ def choose_design(case, opt, stopped, settings, validator: Validator,
         k = settings.racing_candidates
         choice.race = racer(ranked[:k])
         evidence, reorder = choice.race.evidence(), choice.race.order
-        again, _ = rank_candidates(opt, settings.min_probability, evidence)
+        again, _ = rank_candidates(opt, settings.min_probability, evidence, level)
         ranked = reorder(again) or reorder(ranked) or ranked
         choice.best = ranked[0]
         r = choice.race
@@ -142,7 +153,7 @@ def choose_design(case, opt, stopped, settings, validator: Validator,
     if validator.samples and not stopped:
         choice.tried = _validate_in_turn(opt, ranked, settings.min_probability, validator,
                                          case, n_candidates, validator.rule, evidence,
-                                         reorder)
+                                         reorder, level)
         # the first design that met C_P, if any (the last one tried), else the first
         last = choice.tried[-1]
         choice.best, choice.result = last if validator.meets(last[1]) else choice.tried[0]
@@ -214,6 +225,7 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
         "validation_samples": settings.validation_samples,
         "validation_stop": bool(settings.validation_stop),
         "fresh_samples": bool(settings.fresh_samples),
+        "selection_level": settings.selection_level,
         "racing": (choice.race.to_dict(lambda o: _index(opt.history, o))
                    if choice.race is not None else None),
     }
@@ -234,7 +246,7 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
 
 
 def _validate_in_turn(opt, ranked, min_probability, validate, case, n_candidates: int,
-                      rule: str, evidence=(), reorder=list) -> list:
+                      rule: str, evidence=(), reorder=list, level=None) -> list:
     """Validate the ranked designs in turn until one meets C_P (by ``rule``), at most
     ``n_candidates``; after each failure its validation joins the constraint GP's data
     (beside ``evidence``, e.g. the racing samples) and the designs are ranked again (then
@@ -253,7 +265,7 @@ def _validate_in_turn(opt, ranked, min_probability, validate, case, n_candidates
             break
         evidence.append(validation_evidence(cand, r.successes, r.n_samples, P_SUCCESS))
         if len(tried) < n_candidates:
-            order = reorder(rank_candidates(opt, min_probability, evidence)[0])
+            order = reorder(rank_candidates(opt, min_probability, evidence, level)[0])
     return tried
 
 

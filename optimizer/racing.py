@@ -103,7 +103,7 @@ class RaceResult:
 
 def race(candidates: Sequence[Observation], sample: Callable[[Observation, int], object],
          threshold: float, round_samples: int, budget: int,
-         max_samples: int | None = None) -> RaceResult:
+         max_samples: int | None = None, clear_level: float | None = None) -> RaceResult:
     """Race ``candidates`` (lowest objective first; module docstring).
 
     Args:
@@ -115,7 +115,10 @@ def race(candidates: Sequence[Observation], sample: Callable[[Observation, int],
         round_samples: samples per candidate and round.
         budget: the most racing samples in all.
         max_samples: the most racing samples per candidate (None: no limit).
+        clear_level: the lower end of the Wilson interval that clears a candidate
+            (None: ``threshold``; the selection level of docs/optimizer.md §5).
     """
+    clear_at = threshold if clear_level is None else clear_level
     result = RaceResult(entries=[RaceEntry(c) for c in candidates])
     if not result.entries:
         return result
@@ -137,7 +140,7 @@ def race(candidates: Sequence[Observation], sample: Callable[[Observation, int],
             low, high = e.interval
             if high < threshold:
                 e.status, e.decided_in_round = "dropped", result.rounds
-            elif low >= threshold:
+            elif low >= clear_at:
                 e.status, e.decided_in_round = "cleared", result.rounds
             elif max_samples is not None and e.samples >= max_samples:
                 e.status = "undecided"

@@ -25,32 +25,40 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from .bayesopt import ConstrainedBayesOpt
+from .cases import P_SUCCESS
 from .observation import Observation, binomial_observation
 
 __all__ = ["rank_candidates", "select_best", "validation_evidence"]
 
 
 def rank_candidates(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5,
-                    evidence: Sequence[Observation] = ()) -> tuple[list[Observation], str]:
+                    evidence: Sequence[Observation] = (), level: float | None = None
+                    ) -> tuple[list[Observation], str]:
     """The designs to validate, best first, and the rule that ranked them (see the module
     docstring); ``([], "no evaluated design met the constraints")`` when no evaluation was
     observed feasible.  ``evidence``: failed validations (:func:`validation_evidence`)
-    that the constraint GP is fitted to besides the history."""
+    that the constraint GP is fitted to besides the history.  ``level``: the P*_s that
+    the posterior probability is taken against instead of C_P (the selection level,
+    :func:`optimizer.finish.validation_pass_level`)."""
     plain = opt.ranked_feasible()
     if not plain:
         return [], "no evaluated design met the constraints"
     if min_probability is None or len(opt.history) < 2:
         return plain, "lowest objective among observed-feasible designs"
     try:
-        pooled = opt.ranked_feasible(min_probability=min_probability, evidence=evidence)
+        pooled = opt.ranked_feasible(min_probability=min_probability, evidence=evidence,
+                                     levels=None if level is None else {P_SUCCESS: level})
     except Exception:  # noqa: BLE001 - a GP fit failure must not lose the run's result
         return plain, ("lowest objective among observed-feasible designs "
                        "(constraint GP could not be fitted)")
+    what = ("posterior probability of feasibility" if level is None else
+            f"posterior probability of P*_s >= {level:.4g} (the rate a validation passes "
+            "at half the time)")
     if not pooled:
         return plain, (f"lowest objective among observed-feasible designs (none had a "
-                       f"posterior probability of feasibility >= {min_probability:g})")
+                       f"{what} >= {min_probability:g})")
     return pooled, (f"lowest objective among designs with observed P*_s >= threshold and "
-                    f"posterior probability of feasibility >= {min_probability:g}")
+                    f"{what} >= {min_probability:g}")
 
 
 def select_best(opt: ConstrainedBayesOpt, min_probability: float | None = 0.5

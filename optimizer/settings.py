@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 from .cases import VALIDATION_RULES
 
-__all__ = ["RunError", "SettingError", "RunSettings", "MUTABLE", "NEW_RUN_DEFAULTS",
+__all__ = ["RunError", "SettingError", "RunSettings", "MUTABLE", "NEW_RUN_DEFAULTS", "SELECTION_LEVELS",
            "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION", "SEED_LIMIT", "fresh_base_seed"]
 
 RUN_FORMAT = "tethernet_ros.optimizer.run"
@@ -35,7 +35,8 @@ RUN_VERSION = 1
 #: optimisation: racing and validation)
 MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
                      "validation_rule", "validation_stop", "compare_reference",
-                     "racing_candidates", "racing_round", "racing_budget", "racing_seed"})
+                     "racing_candidates", "racing_round", "racing_budget", "racing_seed",
+                     "selection_level"})
 #: the value of a ``None`` ("as recorded") setting for a new run; a callable takes the
 #: :class:`~optimizer.cases.Case`
 NEW_RUN_DEFAULTS = {
@@ -53,6 +54,11 @@ NEW_RUN_DEFAULTS = {
     "fresh_samples": lambda case: not case.objective_from_samples,
     "shared_luck": True,
 }
+#: what the final choice's posterior probability and the race's clearing are taken
+#: against: C_P itself ("requirement"), or the true P*_s at which the run's validation
+#: passes half the time ("validation", :func:`optimizer.sequential.pass_level`: 0.9884
+#: for 1000 samples at 98 % by the Wilson rule)
+SELECTION_LEVELS = ("requirement", "validation")
 #: the value of a setting that a run directory of an older version does not record
 RECORDED_DEFAULTS = {"sequential": False, "validation_candidates": 1,
                      "validation_rule": "estimate",
@@ -151,6 +157,9 @@ class RunSettings:
         racing_budget: the most racing samples in all (>= 0).
         racing_seed: base seed of the racing samples (< 1 000 000); must differ from
             ``sample_seed`` and ``validation_seed`` when racing.
+        selection_level: one of :data:`SELECTION_LEVELS`: the P*_s that the final
+            ranking's posterior probability (``min_probability``) and the race's clearing
+            are taken against (docs/optimizer.md §5).
         optimizer_options: further :class:`~optimizer.bayesopt.ConstrainedBayesOpt`
             settings (not ``n_initial``, ``n_iterations``, ``seed``, ``cheap_constraint``);
             kept as a read-only mapping.
@@ -176,6 +185,7 @@ class RunSettings:
     racing_round: int = 100
     racing_budget: int = 2000
     racing_seed: int = 2
+    selection_level: str = "requirement"
 
     def __post_init__(self):
         for name, (low, high) in _INT_RANGE.items():
@@ -190,6 +200,9 @@ class RunSettings:
         rule = self.validation_rule
         if not (rule in VALIDATION_RULES or (rule is None and "validation_rule" in NEW_RUN_DEFAULTS)):
             raise SettingError("validation_rule", rule, f"be one of {', '.join(VALIDATION_RULES)}")
+        if self.selection_level not in SELECTION_LEVELS:
+            raise SettingError("selection_level", self.selection_level,
+                               f"be one of {', '.join(SELECTION_LEVELS)}")
         for name in ("validation_stop", "sequential", "compare_reference", "fresh_samples",
                      "shared_luck"):
             value = getattr(self, name)
@@ -259,7 +272,7 @@ class RunSettings:
                 "fresh_samples": self.fresh_samples, "shared_luck": self.shared_luck,
                 "racing_candidates": self.racing_candidates,
                 "racing_round": self.racing_round, "racing_budget": self.racing_budget,
-                "racing_seed": self.racing_seed}
+                "racing_seed": self.racing_seed, "selection_level": self.selection_level}
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

@@ -171,3 +171,62 @@ def test_shared_luck_keeps_near_copies_from_making_the_model_sure():
     assert mu_ev < mu_sh - 0.005 and sd_ev < sd_sh
     assert opt.state_dict()["settings"]["shared_luck"] == {"p": 0.98 * 0.02 / 100}
     assert "shared_luck" not in fitted(False)[0].state_dict()["settings"]
+
+
+
+def test_race_clears_at_the_selection_level_when_given():
+    """With ``clear_level`` a candidate must reach that lower Wilson end, not C_P: B (no
+    failure) clears 0.98 at 200/200 (Wilson lower 0.981) but 0.9884 only at 400/400
+    (0.9905; 300/300: 0.9874); A (2 % failures) clears neither and races on until the
+    budget."""
+    a, b = _obs(1.0), _obs(2.0)
+    sample, _ = _sampler({1.0: 50, 2.0: None})
+    plain = race([b], sample, 0.98, round_samples=100, budget=1000)
+    assert plain.winner.samples == 200
+    strict = race([a, b], sample, 0.98, round_samples=100, budget=1000, clear_level=0.9884)
+    assert strict.winner.candidate is b and strict.winner.samples == 400
+    assert strict.entries[0].status == "racing" and strict.stopped_by == "budget"
+
+
+def test_selection_level_ranks_against_the_validation_s_pass_level(tmp_path):
+    """``selection_level`` "validation": the final ranking keeps only designs with
+    posterior probability >= 0.5 of P*_s >= the validation's pass level (above C_P), a
+    subset of the ranking against C_P; the run records the setting and says the level in
+    its rule; a resume may change it."""
+    from optimizer.bayesopt import ConstrainedBayesOpt
+    from optimizer.cases import P_SUCCESS
+    from optimizer.checkpoint import load_checkpoint
+    from optimizer.finish import selection_level
+    from optimizer.selection import rank_candidates
+    from optimizer.sequential import pass_level
+    from optimizer.settings import RunSettings
+    kw = dict(iterations=10, seed_points=8, samples=10, validation_samples=200,
+              optimizer_options=FAST, fresh_samples=True, racing_candidates=0,
+              validation_candidates=1)
+    s = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
+                        selection_level="validation", **kw)
+    level = pass_level(200, 0.98, "wilson")
+    assert 0.98 < level < 1.0
+    assert s["selection_level"] == "validation" and f"{level:.4g}" in s["selection_rule"]
+    settings = RunSettings(selection_level="validation", validation_samples=1000,
+                           validation_rule="wilson")
+    assert selection_level(CASE_MASS, settings) == pytest.approx(0.98834, abs=1e-4)
+    assert selection_level(CASE_MASS, settings.replace(selection_level="requirement")) is None
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["selection_level"] == "validation"
+    again = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
+                            resume=True, selection_level="requirement", **kw)
+    assert "the rate a validation passes" not in again["selection_rule"]
+    with pytest.raises(Exception, match="selection_level"):
+        RunSettings(selection_level="strict")
+    state = load_checkpoint(tmp_path / "r" / "checkpoint.json")["optimizer"]
+    opt = ConstrainedBayesOpt.from_state_dict(state)
+    low = {id(o) for o in opt.ranked_feasible(0.5)}
+    assert low and [id(o) for o in rank_candidates(opt, 0.5)[0]] == [
+        id(o) for o in opt.ranked_feasible(0.5)]
+    sizes = []
+    for high in (level, 0.995, 0.9999):
+        kept = {id(o) for o in opt.ranked_feasible(0.5, levels={P_SUCCESS: high})}
+        assert kept <= low
+        sizes.append(len(kept))
+    assert sizes == sorted(sizes, reverse=True) and sizes[-1] < len(low)

@@ -104,3 +104,18 @@ def test_known_problem_same_best_design_as_full_sampling():
     print(f"\nBernoulliGramacy2016: sequential sampling drew {n_seq} of {n_full} samples; best "
           f"{b_seq.x.round(4).tolist()} (f {b_seq.objective:.4f}) vs full sampling "
           f"{b_full.x.round(4).tolist()} (f {b_full.objective:.4f})")
+
+
+def test_pass_level_is_where_the_test_passes_with_the_chance_asked():
+    """pass_level: the binomial chance of at most F failures is ``chance`` there (to the
+    bisection's 1e-9), lower just below it; above C_P for the Wilson rule at N = 1000."""
+    from scipy.stats import binom
+
+    from optimizer.sequential import pass_level
+    for n, rule, chance in ((1000, "wilson", 0.5), (1000, "estimate", 0.5),
+                            (1000, "wilson", 0.9), (200, "wilson", 0.5)):
+        p = pass_level(n, 0.98, rule, chance)
+        f = allowed_failures(n, 0.98, rule)
+        assert binom.cdf(f, n, 1 - p) >= chance > binom.cdf(f, n, 1 - (p - 1e-6))
+    assert 0.98 < pass_level(1000, 0.98, "wilson") < pass_level(1000, 0.98, "wilson", 0.9)
+    assert pass_level(10, 0.999, "wilson") == 1.0          # no failure count passes

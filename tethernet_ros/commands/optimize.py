@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from optimizer.settings import NEW_RUN_DEFAULTS, RunSettings, SettingError
+from optimizer.settings import NEW_RUN_DEFAULTS, SELECTION_LEVELS, RunSettings, SettingError
 
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
                      backend_from_args, check_backend_arguments, config_from_args,
@@ -77,6 +77,12 @@ def add_arguments(p):
                    help=f"racing samples in all, at most (default {d.racing_budget})")
     p.add_argument("--racing-seed", type=int, default=d.racing_seed, metavar="S",
                    help=f"base seed of the racing samples (default {d.racing_seed})")
+    p.add_argument("--selection-level", choices=SELECTION_LEVELS, default=d.selection_level,
+                   help="what the final ranking and the race take the posterior probability "
+                        "and the clearing against: 'requirement' (P*_s >= 0.98) or "
+                        "'validation' (the P*_s at which the validation passes half the time, "
+                        f"0.9884 for 1000 samples by the Wilson rule; default "
+                        f"{d.selection_level}; may change on --resume)")
     p.add_argument("--fresh-samples", action=argparse.BooleanOptionalAction, default=None,
                    help="give every design samples of its own instead of the same samples "
                         "for all (common random numbers), so that the feasibility model's "
@@ -171,7 +177,8 @@ def run_settings(args) -> RunSettings:
         optimizer_options=options, fresh_samples=args.fresh_samples,
         shared_luck=args.shared_luck,
         racing_candidates=args.racing_candidates, racing_round=args.racing_round,
-        racing_budget=args.racing_budget, racing_seed=args.racing_seed)
+        racing_budget=args.racing_budget, racing_seed=args.racing_seed,
+        selection_level=args.selection_level)
 
 
 class OptimizeProgress:
