@@ -14,7 +14,11 @@ random numbers, with its table and figure written under docs/studies/.
 
 Every cell of every design runs on the same samples (sample i of base seed B uses noise
 seed B*1000003+i).  Each finished sample is appended to the study's results file, so an
-interrupted study resumes where it stopped.
+interrupted study resumes where it stopped.  The study runs cell by cell and rewrites its
+table, figure and summary (``<out>/<study>.json``, studies/summary.py) after each: the
+summary records every finished cell's run key and verdicts, and the same command run
+later, without the results file (another machine, another session), takes those cells
+from it and simulates only the others.
 """
 from __future__ import annotations
 
@@ -57,6 +61,9 @@ def add_arguments(p):
     p.add_argument("--out", default="docs/studies", metavar="DIR",
                    help="where the table (.md), summary (.json) and figure (.png) go")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-summary", action="store_true",
+                   help="simulate every cell, even those the study's summary in --out already "
+                        "records with the same run key, seed and samples")
     p.add_argument("--report-only", action="store_true",
                    help="simulate nothing: report the samples already in the results file "
                         "(a cell's n may then be below --samples)")
@@ -69,9 +76,9 @@ def add_arguments(p):
 def run(args) -> int:
     from ..errors import UserError
     from ..montecarlo import RunSpec, evaluate_many
+    from ..montecarlo.keys import run_key
     from ..studies.cells import STUDIES
-    from ..studies.paired import CellStats, PairedStats
-    from ..studies.report import comparison_table, plot_study, study_table
+    from ..studies.summary import CellRecord, reusable_cells
 
     designs = [d.strip() for d in args.designs.split(",") if d.strip()]
     if args.study == "compare":
@@ -97,47 +104,83 @@ def run(args) -> int:
         if unknown:
             raise UserError(f"--cells: unknown {sorted(unknown)}; allowed {[c.label for c in cells]}")
         cells = [cells[0]] + [c for c in cells[1:] if c.label in keep]
-    specs = [RunSpec(design_of[d], noise_model=c.noise, config=c.config,
-                     label=f"{c.label}|{d}") for c in cells for d in designs]
+    specs = {(c.label, d): RunSpec(design_of[d], noise_model=c.noise, config=c.config,
+                                   label=f"{c.label}|{d}") for c in cells for d in designs}
     results = Path(args.results or f"out/studies/{args.study}_seed{args.seed}.jsonl")
     results.parent.mkdir(parents=True, exist_ok=True)
-    progress = None
-    if not args.no_progress:
-        from tqdm import tqdm
-
-        bar = tqdm(desc=f"study {args.study}", unit="ep", file=sys.stderr)
-
-        def progress(done, total, _r):
-            bar.total = total
-            bar.n = done
-            bar.refresh()
-    if args.report_only:
-        by_label = _from_file(specs, args.samples, args.seed, results, args.model_version)
-    else:
-        backend = backend_from_args(args)
-        try:
-            out = evaluate_many(specs, args.samples, args.seed, backend, results_path=results,
-                                progress=progress)
-        finally:
-            backend.close()
-        by_label = {r.label: r for r in out}
-    stats, paired = {}, {}
-    for c in cells:
-        for d in designs:
-            got = by_label.get(f"{c.label}|{d}")
-            if got is not None and got.samples:
-                stats[(c.label, d)] = CellStats.from_samples(c.label, d, got.samples)
-    for c in cells[1:]:
-        for d in designs:
-            if (c.label, d) not in stats or (cells[0].label, d) not in stats \
-                    or stats[(c.label, d)].n != stats[(cells[0].label, d)].n:
-                continue   # (a cell still running: compared once complete)
-            paired[(c.label, d)] = PairedStats.from_samples(
-                stats[(cells[0].label, d)], stats[(c.label, d)],
-                by_label[f"{cells[0].label}|{d}"].samples, by_label[f"{c.label}|{d}"].samples)
-
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
+    summary_path = outdir / f"{args.study}.json"
+    backend = None if args.report_only else backend_from_args(args)
+    try:
+        source = getattr(backend, "episode_source", None)
+        earlier = {} if args.no_summary else reusable_cells(summary_path, args.seed, args.samples)
+        records: dict[tuple[str, str], CellRecord] = {}
+        for (label, d), spec in specs.items():
+            key = run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
+            if key in earlier:
+                records[(label, d)] = CellRecord.from_json(earlier[key], label, d)
+        if records:
+            print(f"{summary_path}: {len(records)} of {len(specs)} cells taken as recorded "
+                  "(same run key, seed and samples); the others are simulated", file=sys.stderr)
+        if args.report_only:
+            todo = [s for k, s in specs.items() if k not in records]
+            for label_d, got in _from_file(todo, args.samples, args.seed, results,
+                                           args.model_version).items():
+                label, d = label_d.split("|", 1)
+                records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
+                                                              got.samples)
+        else:
+            # cell by cell, so that the summary and the report hold every finished cell
+            for c in cells:
+                todo = [specs[(c.label, d)] for d in designs if (c.label, d) not in records]
+                if not todo:
+                    continue
+                for got in evaluate_many(todo, args.samples, args.seed, backend,
+                                         results_path=results, progress=_progress(args, c.label)):
+                    label, d = got.label.split("|", 1)
+                    records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
+                                                                  got.samples)
+                _write_report(args, base, cells, designs, records, quiet=True)
+    finally:
+        if backend is not None:
+            backend.close()
+    print(_write_report(args, base, cells, designs, records))
+    return 0
+
+
+def _progress(args, label: str):
+    """A progress bar for one cell's episodes (None with --no-progress)."""
+    if args.no_progress:
+        return None
+    from tqdm import tqdm
+
+    bar = tqdm(desc=f"study {args.study}: {label}", unit="ep", file=sys.stderr)
+
+    def progress(done, total, _r):
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+    return progress
+
+
+def _write_report(args, base, cells, designs, records, quiet: bool = False) -> str:
+    """The study's table (.md, keeping its hand-written part), summary (.json, every
+    cell's record) and figure (.png) from the cells recorded so far; returns the table."""
+    from ..studies.paired import PairedStats
+    from ..studies.report import comparison_table, plot_study, study_table
+    from ..studies.summary import keep_written_text
+
+    stats = {k: r.stats for k, r in records.items() if r.stats.n}
+    paired = {}
+    for c in cells[1:]:
+        for d in designs:
+            a, b = records.get((cells[0].label, d)), records.get((c.label, d))
+            if a is None or b is None or not a.stats.n or a.stats.n != b.stats.n:
+                continue   # (a cell still running: compared once complete)
+            paired[(c.label, d)] = PairedStats.from_samples(a.stats, b.stats, a.verdicts,
+                                                            b.verdicts)
+    outdir = Path(args.out)
     name = f"{args.study}"
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
     if args.study == "tumbling":
@@ -155,11 +198,11 @@ def run(args) -> int:
                                   if base.integrator == "implicit" else "")
           + f".\n\nCells (a: {cells[0].label}" + (f", b: {cells[1].label}" if len(cells) == 2 else "")
           + "):\n" + legend + "\n\n" + table + "\n")
-    (outdir / f"{name}.md").write_text(md)
+    (outdir / f"{name}.md").write_text(keep_written_text(outdir / f"{name}.md", md))
     summary = {"study": args.study, "samples": args.samples, "seed": args.seed,
                "designs": designs, "cells": [{"label": c.label, "what": c.what,
                                                "config": c.config.to_dict()} for c in cells],
-               "stats": [vars(s) for s in stats.values()],
+               "stats": [r.to_json() for k, r in records.items() if r.stats.n],
                "paired": [{"a": p.a.label, "b": p.b.label, "design": p.a.design, "flips": p.flips,
                            "a_only": p.a_only, "b_only": p.b_only, "mcnemar_p": p.mcnemar_p,
                            "p_diff": p.p_diff, "t_rel_diff": p.t_rel_diff,
@@ -169,8 +212,7 @@ def run(args) -> int:
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)
     else:
         plot_study(designs, cells, stats, outdir / f"{name}.png", title)
-    print(md)
-    return 0
+    return md
 
 
 def _from_file(specs, n_samples: int, base_seed: int, path: Path,

@@ -1,0 +1,83 @@
+"""A study's summary file (tethernet_ros/studies/summary.py): a study run again without
+its results file (another machine, another session) takes the finished cells from the
+summary committed beside its report and simulates only the others; the report's
+hand-written part survives every rewrite."""
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+from results_lines import sample_lines
+from tethernet_ros.studies.summary import KEEP_MARK, CellRecord, keep_written_text, reusable_cells
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def study(tmp_path, results, cells, samples=3):
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text("settle_time: 1.0\n")
+    return subprocess.run(
+        [sys.executable, "-m", "tethernet_ros.cli", "study", "tumbling", "--designs", "time-min",
+         "--cells", cells, "--samples", str(samples), "--config", str(cfg), "--workers", "0",
+         "--results", str(tmp_path / results), "--out", str(tmp_path / "docs"), "--no-progress"],
+        capture_output=True, text=True, cwd=ROOT, timeout=300)
+
+
+def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
+    first = study(tmp_path, "a.jsonl", "rest threshold,flat 8 threshold")
+    assert first.returncode == 0, first.stderr
+    summary = json.loads((tmp_path / "docs" / "tumbling.json").read_text())
+    assert [(s["label"], s["n"], len(s["verdicts"])) for s in summary["stats"]] == [
+        ("rest threshold", 3, 3), ("flat 8 threshold", 3, 3)]
+    assert all(s["seed"] == 0 and len(s["key"]) == 20 for s in summary["stats"])
+    assert len(sample_lines(tmp_path / "a.jsonl")) == 6
+    report = tmp_path / "docs" / "tumbling.md"
+    assert KEEP_MARK in report.read_text()
+    report.write_text(report.read_text() + "\nOur findings, by hand.\n")
+
+    # another session: no results file, one more cell
+    second = study(tmp_path, "b.jsonl", "rest threshold,flat 8 threshold,flat 8 adaptive")
+    assert second.returncode == 0, second.stderr
+    assert "2 of 3 cells taken as recorded" in second.stderr
+    assert len(sample_lines(tmp_path / "b.jsonl")) == 3          # the new cell only
+    again = json.loads((tmp_path / "docs" / "tumbling.json").read_text())
+    assert again["stats"][:2] == summary["stats"]
+    assert [p["b"] for p in again["paired"]] == ["flat 8 threshold", "flat 8 adaptive"]
+    assert again["paired"][0] == summary["paired"][0]             # pairs from the verdicts
+    text = report.read_text()
+    assert text.endswith("\nOur findings, by hand.\n") and text.count(KEEP_MARK) == 1
+    assert "| flat | 8 |" in text
+
+    # another number of samples is another study: nothing is taken
+    third = study(tmp_path, "c.jsonl", "rest threshold", samples=2)
+    assert third.returncode == 0, third.stderr
+    assert "taken as recorded" not in third.stderr
+    assert len(sample_lines(tmp_path / "c.jsonl")) == 2
+
+
+def test_unusable_summaries_give_no_cells(tmp_path):
+    rec = {"label": "rest threshold", "design": "time-min", "n": 2, "successes": 1, "p": 0.5,
+           "lo": 0.09, "hi": 0.91, "mean_t": 5.0, "failures": {"x": 1}, "key": "k" * 20,
+           "seed": 0, "verdicts": "10"}
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps({"stats": [rec, {**rec, "key": "b" * 20, "verdicts": "11"},
+                                          {**rec, "key": "c" * 20, "seed": 1},
+                                          {k: v for k, v in rec.items() if k != "verdicts"}]}))
+    assert list(reusable_cells(path, 0, 2)) == ["k" * 20]          # the others disagree or lack
+    assert reusable_cells(path, 0, 3) == {}
+    cell = CellRecord.from_json(rec, "flat 1 threshold", "mass-min")
+    assert cell.stats.label == "flat 1 threshold" and [v.seed for v in cell.verdicts] == [0, 1]
+    assert cell.to_json() == {**rec, "label": "flat 1 threshold", "design": "mass-min"}
+    path.write_text('{"stats": [')                                  # truncated
+    assert reusable_cells(path, 0, 2) == {}
+    with pytest.raises(ValueError, match="verdicts"):
+        CellRecord.from_json({**rec, "verdicts": "1x"}, "a", "b")
+
+
+def test_the_hand_written_part_is_kept(tmp_path):
+    md = tmp_path / "r.md"
+    assert keep_written_text(md, "# table\n") == f"# table\n\n{KEEP_MARK}\n"
+    md.write_text(f"# old table\n\n{KEEP_MARK}\n## Findings\n")
+    assert keep_written_text(md, "# new table\n") == f"# new table\n\n{KEEP_MARK}\n## Findings\n"
