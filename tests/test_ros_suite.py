@@ -367,6 +367,26 @@ def test_request_without_noise_settings_gets_the_nominal_spreads(suite):
     assert (r.closing_time, r.settled_cqi) != (noise_free.closing_time, noise_free.settled_cqi)
 
 
+def test_a_cancelled_call_leaves_the_episode(suite):
+    """RosSuite.call returns once its ``cancel`` event is set (RosBackend's suites when the
+    run stops, e.g. on SIGTERM), without waiting for the episode's response; the suite
+    then serves the next request with that request's own episode."""
+    import threading
+
+    from tethernet_ros.ros.suite import RosCaptureError
+
+    class AfterThreeStates(threading.Event):
+        def is_set(self):                      # set once the episode is under way
+            return len(suite.metrics) >= 3
+
+    req = suite.request(load_design("baseline"), 5, record_bag=False)
+    with pytest.raises(RosCaptureError, match="cancelled"):
+        suite.call(req, timeout=120, cancel=AfterThreeStates())
+    resp = suite.call(suite.request(DESIGN, SEED, record_bag=False), timeout=120)
+    assert resp.status == RunCapture.Response.SUCCEEDED, resp.error
+    assert resp.result.seed == SEED
+
+
 def test_sim_node_killed_mid_episode(suite):
     """Last in the module: it leaves the suite without a simulation node."""
     req = suite.request(load_design("baseline"), 5, bag_name="killed")

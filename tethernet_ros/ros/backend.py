@@ -193,7 +193,7 @@ class RosBackend(EpisodeBackend):
                         task = next(source, None)
                     if task is None:
                         return
-                    out.put(self._outcome(slot, task))
+                    out.put(self._outcome(slot, task, cancel=stop))
             finally:
                 out.put(done)
 
@@ -210,14 +210,20 @@ class RosBackend(EpisodeBackend):
                 else:
                     yield item
         finally:
+            # left early (an interrupt, SIGTERM, a consumer that has what it needs): the
+            # episodes in flight are cancelled, not waited for
             stop.set()
             for t in threads:
                 t.join()
 
-    def _outcome(self, slot: _Slot, task: EpisodeTask) -> Outcome:
+    def _outcome(self, slot: _Slot, task: EpisodeTask,
+                 cancel: threading.Event | None = None) -> Outcome:
         try:
-            return Outcome(task, self.run_task(task, slot))
+            return Outcome(task, self.run_task(task, slot, cancel=cancel))
         except Exception as exc:  # noqa: BLE001 - every task error becomes an outcome
+            if cancel is not None and cancel.is_set():
+                self._stop_suite(slot)        # its nodes may still run the abandoned episode
+                return Outcome(task, error=error_text(exc))
             crashed = False
             if slot.suite is not None:
                 try:
@@ -228,14 +234,16 @@ class RosBackend(EpisodeBackend):
                 self._stop_suite(slot)
             return Outcome(task, error=error_text(exc), crashed=crashed)
 
-    def run_task(self, task: EpisodeTask, slot: _Slot | None = None) -> SampleResult:
-        """One sample through a suite; the result as recorded in the episode's bag."""
+    def run_task(self, task: EpisodeTask, slot: _Slot | None = None,
+                 cancel: threading.Event | None = None) -> SampleResult:
+        """One sample through a suite; the result as recorded in the episode's bag
+        (``cancel``: abandon the episode once set, :meth:`RosSuite.call`)."""
         suite = self._suite_for(slot or self._slots[0], task)
         name = sample_name(task.key, task.seed, task.attempt)
         t0 = time.perf_counter()
         resp = suite.call(suite.request(task.design, task.seed, task.noise_model,
                                         record_bag=True, bag_name=name),
-                          timeout=self.episode_timeout)
+                          timeout=self.episode_timeout, cancel=cancel)
         wall = time.perf_counter() - t0
         if resp.status == REJECTED:
             raise RuntimeError(f"RunCapture refused the sample: {resp.error}")

@@ -24,6 +24,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -426,9 +427,11 @@ class RosSuite:
         """CaptureMetrics received by the client during the last call."""
         return self._metrics
 
-    def call(self, request, timeout: float = 900.0, check_processes: bool = True):
-        """Send a RunCapture request; the response (raises RosCaptureError on timeout or,
-        if ``check_processes``, when a node process dies)."""
+    def call(self, request, timeout: float = 900.0, check_processes: bool = True,
+             cancel: threading.Event | None = None):
+        """Send a RunCapture request; the response (raises RosCaptureError on timeout,
+        once ``cancel`` is set, the episode then left running in the nodes, or, if
+        ``check_processes``, when a node process dies)."""
         self._metrics.clear()
         future = self._client.call_async(request)
         deadline = time.monotonic() + timeout
@@ -436,6 +439,9 @@ class RosSuite:
             self._executor.spin_once(timeout_sec=0.05)
             if check_processes:
                 self.check_alive()
+            if cancel is not None and cancel.is_set():
+                self._client.remove_pending_request(future)
+                raise RosCaptureError("cancelled: the run stopped before the episode ended")
             if time.monotonic() > deadline:
                 self._client.remove_pending_request(future)
                 raise RosCaptureError(f"timed out after {timeout:g} s waiting for the RunCapture "
