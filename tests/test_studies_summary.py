@@ -10,18 +10,19 @@ import sys
 import pytest
 
 from results_lines import sample_lines
-from tethernet_ros.studies.summary import KEEP_MARK, CellRecord, keep_written_text, reusable_cells
+from tethernet_ros.studies.summary import (KEEP_MARK, CellRecord, keep_written_text, plan_text,
+                                            reusable_cells)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def study(tmp_path, results, cells, samples=3):
+def study(tmp_path, results, cells, samples=3, extra=()):
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text("settle_time: 1.0\n")
     return subprocess.run(
         [sys.executable, "-m", "tethernet_ros.cli", "study", "tumbling", "--designs", "time-min",
          "--cells", cells, "--samples", str(samples), "--config", str(cfg), "--workers", "0",
-         "--results", str(tmp_path / results), "--out", str(tmp_path / "docs"), "--no-progress"],
+         "--results", str(tmp_path / results), "--out", str(tmp_path / "docs"), "--no-progress", *extra],
         capture_output=True, text=True, cwd=ROOT, timeout=300)
 
 
@@ -36,6 +37,13 @@ def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
     report = tmp_path / "docs" / "tumbling.md"
     assert KEEP_MARK in report.read_text()
     report.write_text(report.read_text() + "\nOur findings, by hand.\n")
+
+    plan = study(tmp_path, "a.jsonl", "rest threshold,flat 8 threshold,flat 8 adaptive",
+                 extra=["--plan"])
+    assert plan.returncode == 0, plan.stderr
+    assert "recorded in the summary: 2 of 3 (cell, design) pairs" in plan.stdout
+    assert "3 episodes left, about" in plan.stdout                # simulates nothing
+    assert len(sample_lines(tmp_path / "a.jsonl")) == 6
 
     # another session: no results file, one more cell
     second = study(tmp_path, "b.jsonl", "rest threshold,flat 8 threshold,flat 8 adaptive")
@@ -57,10 +65,13 @@ def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
     assert len(sample_lines(tmp_path / "c.jsonl")) == 2
 
 
+REC = {"label": "rest threshold", "design": "time-min", "n": 2, "successes": 1, "p": 0.5,
+       "lo": 0.09, "hi": 0.91, "mean_t": 5.0, "failures": {"x": 1}, "key": "k" * 20,
+       "seed": 0, "verdicts": "10", "cpu_time": 1.5}
+
+
 def test_unusable_summaries_give_no_cells(tmp_path):
-    rec = {"label": "rest threshold", "design": "time-min", "n": 2, "successes": 1, "p": 0.5,
-           "lo": 0.09, "hi": 0.91, "mean_t": 5.0, "failures": {"x": 1}, "key": "k" * 20,
-           "seed": 0, "verdicts": "10"}
+    rec = dict(REC)
     path = tmp_path / "s.json"
     path.write_text(json.dumps({"stats": [rec, {**rec, "key": "b" * 20, "verdicts": "11"},
                                           {**rec, "key": "c" * 20, "seed": 1},
@@ -74,6 +85,20 @@ def test_unusable_summaries_give_no_cells(tmp_path):
     assert reusable_cells(path, 0, 2) == {}
     with pytest.raises(ValueError, match="verdicts"):
         CellRecord.from_json({**rec, "verdicts": "1x"}, "a", "b")
+
+
+def test_plan_of_what_is_left():
+    recs = {("rest", "a"): CellRecord.from_json({**REC, "cpu_time": 4.0}, "rest", "a"),
+            ("rest", "b"): CellRecord.from_json({**REC, "cpu_time": 1.0}, "rest", "b")}
+    text = plan_text("tumbling", ["a", "b", "c"], ["rest", "flat 1"], 2, recs,
+                     {("flat 1", "a"): 1}, workers=2)
+    assert "recorded in the summary: 2 of 6 (cell, design) pairs" in text
+    assert "| a | 1 | 2.00 | 0.00 |" in text                       # 2 - 1 in the results file
+    assert "| b | 2 | 0.50 | 0.00 |" in text
+    assert "| c | 4 | 1.25 (all designs) | 0.00 |" in text          # (4 + 1) / (2 + 2)
+    assert "7 episodes left, about 0.0 CPU-hours" in text
+    none = plan_text("tumbling", ["a"], ["rest"], 2, {}, {}, workers=1)
+    assert "no CPU time recorded yet" in none
 
 
 def test_the_hand_written_part_is_kept(tmp_path):

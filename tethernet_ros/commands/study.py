@@ -64,6 +64,10 @@ def add_arguments(p):
     p.add_argument("--no-summary", action="store_true",
                    help="simulate every cell, even those the study's summary in --out already "
                         "records with the same run key, seed and samples")
+    p.add_argument("--plan", action="store_true",
+                   help="simulate nothing: print the episodes the study has left (cells not "
+                        "in its summary, samples not in its results file) and their CPU "
+                        "time at the CPU seconds per episode the summary records")
     p.add_argument("--report-only", action="store_true",
                    help="simulate nothing: report the samples already in the results file "
                         "(a cell's n may then be below --samples)")
@@ -111,7 +115,7 @@ def run(args) -> int:
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     summary_path = outdir / f"{args.study}.json"
-    backend = None if args.report_only else backend_from_args(args)
+    backend = None if args.report_only or args.plan else backend_from_args(args)
     try:
         source = getattr(backend, "episode_source", None)
         earlier = {} if args.no_summary else reusable_cells(summary_path, args.seed, args.samples)
@@ -123,6 +127,9 @@ def run(args) -> int:
         if records:
             print(f"{summary_path}: {len(records)} of {len(specs)} cells taken as recorded "
                   "(same run key, seed and samples); the others are simulated", file=sys.stderr)
+        if args.plan:
+            print(_plan(args, cells, designs, specs, records, results, source))
+            return 0
         if args.report_only:
             todo = [s for k, s in specs.items() if k not in records]
             for label_d, got in _from_file(todo, args.samples, args.seed, results,
@@ -147,6 +154,25 @@ def run(args) -> int:
             backend.close()
     print(_write_report(args, base, cells, designs, records))
     return 0
+
+
+def _plan(args, cells, designs, specs, records, results: Path, source) -> str:
+    """--plan: the study's episodes left and their estimated CPU time."""
+    from ..montecarlo.keys import run_key
+    from ..montecarlo.results_file import ResultsFile
+    from ..montecarlo.seeds import sample_seed
+    from ..studies.summary import plan_text
+
+    known = ResultsFile(results).load() if results.exists() else {}
+    seeds = [sample_seed(args.seed, i) for i in range(args.samples)]
+    in_results = {}
+    for (label, d), spec in specs.items():
+        if (label, d) in records:
+            continue
+        key = run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
+        in_results[(label, d)] = sum(1 for s in seeds if (key, s) in known)
+    return plan_text(args.study, designs, [c.label for c in cells], args.samples, records,
+                     in_results, args.workers or 1)
 
 
 def _progress(args, label: str):

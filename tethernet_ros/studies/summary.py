@@ -40,24 +40,28 @@ class Verdict:
 
 @dataclass(frozen=True)
 class CellRecord:
-    """One cell of one design as the summary keeps it: statistics, run key, base seed and
-    verdicts in sample order."""
+    """One cell of one design as the summary keeps it: statistics, run key, base seed,
+    verdicts in sample order and the CPU seconds its episodes took (their sum, as the
+    results file recorded them; for planning what remains, :func:`plan_text`)."""
 
     stats: CellStats
     key: str
     base_seed: int
     verdicts: tuple[Verdict, ...]
+    cpu_time: float = 0.0
 
     @classmethod
     def from_samples(cls, label: str, design: str, key: str, base_seed: int,
                      samples) -> CellRecord:
         """From the cell's samples (``SampleResult``, index order)."""
+        cpu = sum(float(s.cpu_time) for s in samples if math.isfinite(float(s.cpu_time)))
         return cls(CellStats.from_samples(label, design, samples), key, base_seed,
-                   tuple(Verdict(int(s.seed), bool(s.success)) for s in samples))
+                   tuple(Verdict(int(s.seed), bool(s.success)) for s in samples), cpu)
 
     def to_json(self) -> dict:
         return {**vars(self.stats), "key": self.key, "seed": self.base_seed,
-                "verdicts": "".join("1" if v.success else "0" for v in self.verdicts)}
+                "verdicts": "".join("1" if v.success else "0" for v in self.verdicts),
+                "cpu_time": self.cpu_time}
 
     @classmethod
     def from_json(cls, rec: dict, label: str, design: str) -> CellRecord:
@@ -73,7 +77,7 @@ class CellRecord:
         if stats.n != len(verdicts) or stats.successes != sum(v.success for v in verdicts):
             raise ValueError(f"cell {rec.get('label')!r}: n and successes disagree with its "
                              "verdicts")
-        return cls(stats, str(rec["key"]), base, verdicts)
+        return cls(stats, str(rec["key"]), base, verdicts, float(rec.get("cpu_time", 0.0)))
 
 
 def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str, dict]:
@@ -110,3 +114,46 @@ def keep_written_text(path: str | Path, generated: str) -> str:
         if i >= 0:
             kept = old[i + len(KEEP_MARK):]
     return generated.rstrip("\n") + "\n\n" + KEEP_MARK + (kept if kept else "\n")
+
+
+def plan_text(study: str, designs: list[str], cells: list[str], n_samples: int,
+              records: dict, in_results: dict, workers: int) -> str:
+    """What a study still has to simulate, without simulating: cells recorded (``records``,
+    (cell, design) -> CellRecord), samples already in the results file (``in_results``,
+    (cell, design) -> count), the episodes left per design and their CPU time at each
+    design's recorded CPU seconds per episode (the mean over all recorded designs for a
+    design without any; none when nothing is recorded yet)."""
+    left = {d: sum(n_samples - in_results.get((c, d), 0) for c in cells
+                   if (c, d) not in records) for d in designs}
+    per_ep = {}
+    for d in designs:
+        mine = [r for (c, dd), r in records.items() if dd == d and r.cpu_time > 0]
+        if mine:
+            per_ep[d] = sum(r.cpu_time for r in mine) / sum(r.stats.n for r in mine)
+    everyone = [r for r in records.values() if r.cpu_time > 0]
+    fallback = (sum(r.cpu_time for r in everyone) / sum(r.stats.n for r in everyone)
+                if everyone else None)
+    lines = [f"study {study}: {len(cells)} cells x {len(designs)} designs, N = {n_samples}",
+             f"recorded in the summary: {len(records)} of {len(cells) * len(designs)} "
+             f"(cell, design) pairs; samples in the results file beside them: "
+             f"{sum(in_results.values())}",
+             "| design | episodes left | CPU-s per episode | CPU-hours left |", "|---|---|---|---|"]
+    total_h, unknown = 0.0, False
+    for d in designs:
+        cost = per_ep.get(d, fallback)
+        if cost is None:
+            unknown = True
+            lines.append(f"| {d} | {left[d]} | - | - |")
+            continue
+        hours = left[d] * cost / 3600
+        total_h += hours
+        lines.append(f"| {d} | {left[d]} | {cost:.2f}{'' if d in per_ep else ' (all designs)'} "
+                     f"| {hours:.2f} |")
+    n_left = sum(left.values())
+    if unknown:
+        lines.append(f"{n_left} episodes left; no CPU time recorded yet: run a cell first")
+    else:
+        lines.append(f"{n_left} episodes left, about {total_h:.1f} CPU-hours: "
+                     f"{total_h / max(1, workers):.1f} h of wall time on {max(1, workers)} "
+                     "worker(s)")
+    return "\n".join(lines)
