@@ -370,7 +370,8 @@ def test_request_without_noise_settings_gets_the_nominal_spreads(suite):
 def test_a_cancelled_call_leaves_the_episode(suite):
     """RosSuite.call returns once its ``cancel`` event is set (RosBackend's suites when the
     run stops, e.g. on SIGTERM), without waiting for the episode's response; the suite
-    then serves the next request with that request's own episode."""
+    then refuses calls (the abandoned episode's states would mix with the next one's)
+    until it is started again, and then serves the next request with its own episode."""
     import threading
 
     from tethernet_ros.ros.suite import RosCaptureError
@@ -382,9 +383,15 @@ def test_a_cancelled_call_leaves_the_episode(suite):
     req = suite.request(load_design("baseline"), 5, record_bag=False)
     with pytest.raises(RosCaptureError, match="cancelled"):
         suite.call(req, timeout=120, cancel=AfterThreeStates())
+    with pytest.raises(RosCaptureError, match="abandoned an episode"):
+        suite.call(suite.request(DESIGN, SEED, record_bag=False), timeout=120)
+    suite.stop()
+    suite.start()
     resp = suite.call(suite.request(DESIGN, SEED, record_bag=False), timeout=120)
     assert resp.status == RunCapture.Response.SUCCEEDED, resp.error
     assert resp.result.seed == SEED
+    assert suite.metrics and all(m.sim_time <= resp.result.completion_time + 1e-9
+                                 for m in suite.metrics)
 
 
 def test_sim_node_killed_mid_episode(suite):

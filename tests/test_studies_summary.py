@@ -10,8 +10,9 @@ import sys
 import pytest
 
 from results_lines import sample_lines
-from tethernet_ros.studies.summary import (KEEP_MARK, CellRecord, keep_written_text, plan_text,
-                                            reusable_cells)
+from tethernet_ros.core.metrics import wilson_interval
+from tethernet_ros.studies.summary import (KEEP_MARK, CellRecord, Verdict, keep_written_text,
+                                            plan_text, reusable_cells)
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -58,15 +59,22 @@ def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
     assert text.endswith("\nOur findings, by hand.\n") and text.count(KEEP_MARK) == 1
     assert "| flat | 8 |" in text
 
-    # another number of samples is another study: nothing is taken
+    # another number of samples is another study: nothing is taken, nothing is lost
     third = study(tmp_path, "c.jsonl", "rest threshold", samples=2)
     assert third.returncode == 0, third.stderr
     assert "taken as recorded" not in third.stderr
     assert len(sample_lines(tmp_path / "c.jsonl")) == 2
+    kept = json.loads((tmp_path / "docs" / "tumbling.json").read_text())["kept"]
+    assert [(k["label"], k["n"]) for k in kept] == [("rest threshold", 3), ("flat 8 threshold", 3),
+                                                   ("flat 8 adaptive", 3)]
+    fourth = study(tmp_path, "d.jsonl", "rest threshold,flat 8 threshold,flat 8 adaptive")
+    assert "3 of 3 cells taken as recorded" in fourth.stderr
+    assert not (tmp_path / "d.jsonl").exists() or not sample_lines(tmp_path / "d.jsonl")
 
 
+LO, HI = wilson_interval(1, 2)
 REC = {"label": "rest threshold", "design": "time-min", "n": 2, "successes": 1, "p": 0.5,
-       "lo": 0.09, "hi": 0.91, "mean_t": 5.0, "failures": {"x": 1}, "key": "k" * 20,
+       "lo": LO, "hi": HI, "mean_t": 5.0, "failures": {"x": 1}, "key": "k" * 20,
        "seed": 0, "verdicts": "10", "cpu_time": 1.5}
 
 
@@ -83,6 +91,14 @@ def test_unusable_summaries_give_no_cells(tmp_path):
     assert cell.to_json() == {**rec, "label": "flat 1 threshold", "design": "mass-min"}
     path.write_text('{"stats": [')                                  # truncated
     assert reusable_cells(path, 0, 2) == {}
+    path.write_text('{"stats": null, "kept": 3}')
+    assert reusable_cells(path, 0, 2) == {}
+    # the interval comes from the verdicts, not from the file
+    assert CellRecord.from_json({**rec, "lo": 0.0, "hi": 1.0}, "a", "b").stats.lo == LO
+    # a cell with gaps (samples 0 and 2 of an interrupted run) is shown, never reused
+    gap = CellRecord(cell.stats, cell.key, 0, (Verdict(0, True), Verdict(2, False)))
+    assert not gap.complete_prefix and "verdicts" not in gap.to_json()
+    assert cell.complete_prefix
     with pytest.raises(ValueError, match="verdicts"):
         CellRecord.from_json({**rec, "verdicts": "1x"}, "a", "b")
 

@@ -148,7 +148,7 @@ def run(args) -> int:
                     label, d = got.label.split("|", 1)
                     records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
                                                                   got.samples)
-                _write_report(args, base, cells, designs, records, quiet=True)
+                _write_report(args, base, cells, designs, records)
     finally:
         if backend is not None:
             backend.close()
@@ -163,7 +163,8 @@ def _plan(args, cells, designs, specs, records, results: Path, source) -> str:
     from ..montecarlo.seeds import sample_seed
     from ..studies.summary import plan_text
 
-    known = ResultsFile(results).load() if results.exists() else {}
+    # records() only reads: load() would cut a partial last line a running study is writing
+    known = {(r.key, r.seed) for _rec, r in ResultsFile(results).records()}
     seeds = [sample_seed(args.seed, i) for i in range(args.samples)]
     in_results = {}
     for (label, d), spec in specs.items():
@@ -171,8 +172,11 @@ def _plan(args, cells, designs, specs, records, results: Path, source) -> str:
             continue
         key = run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
         in_results[(label, d)] = sum(1 for s in seeds if (key, s) in known)
+    import os
+
+    workers = args.workers if args.workers else (os.cpu_count() or 1)   # default: all cores
     return plan_text(args.study, designs, [c.label for c in cells], args.samples, records,
-                     in_results, args.workers or 1)
+                     in_results, workers)
 
 
 def _progress(args, label: str):
@@ -190,13 +194,15 @@ def _progress(args, label: str):
     return progress
 
 
-def _write_report(args, base, cells, designs, records, quiet: bool = False) -> str:
+def _write_report(args, base, cells, designs, records) -> str:
     """The study's table (.md, keeping its hand-written part), summary (.json, every
     cell's record) and figure (.png) from the cells recorded so far; returns the table."""
     from ..studies.paired import PairedStats
     from ..studies.report import comparison_table, plot_study, study_table
-    from ..studies.summary import keep_written_text
+    from ..studies.summary import earlier_records, keep_written_text
 
+    order = {(c.label, d): (i, j) for i, c in enumerate(cells) for j, d in enumerate(designs)}
+    records = dict(sorted(records.items(), key=lambda kv: order.get(kv[0], (len(cells), 0))))
     stats = {k: r.stats for k, r in records.items() if r.stats.n}
     paired = {}
     for c in cells[1:]:
@@ -229,6 +235,10 @@ def _write_report(args, base, cells, designs, records, quiet: bool = False) -> s
                "designs": designs, "cells": [{"label": c.label, "what": c.what,
                                                "config": c.config.to_dict()} for c in cells],
                "stats": [r.to_json() for k, r in records.items() if r.stats.n],
+               # cells of earlier runs this one did not cover (other cells, designs, seeds
+               # or sample counts): kept, so that no run loses what another recorded
+               "kept": earlier_records(outdir / f"{name}.json",
+                                       [r for r in records.values() if r.stats.n]),
                "paired": [{"a": p.a.label, "b": p.b.label, "design": p.a.design, "flips": p.flips,
                            "a_only": p.a_only, "b_only": p.b_only, "mcnemar_p": p.mcnemar_p,
                            "p_diff": p.p_diff, "t_rel_diff": p.t_rel_diff,
@@ -257,16 +267,16 @@ def _from_file(specs, n_samples: int, base_seed: int, path: Path,
     versions = [None] + sorted(rf.models) + ([extra_model] if extra_model else [])
     out = {}
     for spec in specs:
-        samples = []
+        samples, kept_key = [], None
         for version in versions:
             key = run_key(spec.design, spec.noise_model, spec.config, version)
             got = [dc_replace(known[(key, sample_seed(base_seed, i))], index=i)
                    for i in range(n_samples) if (key, sample_seed(base_seed, i)) in known]
             if len(got) > len(samples):
-                samples = got
+                samples, kept_key = got, key
         if samples:
             out[spec.label] = MonteCarloResult.from_samples(
-                spec.design, samples, base_seed, key, spec.config, label=spec.label)
+                spec.design, samples, base_seed, kept_key, spec.config, label=spec.label)
     return out
 
 

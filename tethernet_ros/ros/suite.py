@@ -199,6 +199,8 @@ class RosSuite:
         self._client = None
         self._metrics: list = []
         self._executor = None
+        #: a cancelled call left its episode running in the nodes (RosSuite.call)
+        self._abandoned = False
 
     # -- processes -----------------------------------------------------------------------
     def _write_params(self) -> Path:
@@ -214,6 +216,7 @@ class RosSuite:
         """Start the nodes and wait until the service is up and every node has joined
         the graph (the simulation node joins after loading its numba kernels, which can
         take minutes when they must be compiled)."""
+        self._abandoned = False
         overrides = self._write_params()
         defaults = default_params_file()
         for name in NODES:
@@ -430,8 +433,13 @@ class RosSuite:
     def call(self, request, timeout: float = 900.0, check_processes: bool = True,
              cancel: threading.Event | None = None):
         """Send a RunCapture request; the response (raises RosCaptureError on timeout,
-        once ``cancel`` is set, the episode then left running in the nodes, or, if
-        ``check_processes``, when a node process dies)."""
+        once ``cancel`` is set, or, if ``check_processes``, when a node process dies).  A
+        cancelled call leaves its episode running in the nodes, whose states and response
+        would mix with the next call's: the suite then refuses calls until it is stopped
+        and started again."""
+        if self._abandoned:
+            raise RosCaptureError("this suite abandoned an episode (a cancelled call) that its "
+                                  "nodes may still run: stop() and start() it first")
         self._metrics.clear()
         future = self._client.call_async(request)
         deadline = time.monotonic() + timeout
@@ -441,6 +449,7 @@ class RosSuite:
                 self.check_alive()
             if cancel is not None and cancel.is_set():
                 self._client.remove_pending_request(future)
+                self._abandoned = True
                 raise RosCaptureError("cancelled: the run stopped before the episode ended")
             if time.monotonic() > deadline:
                 self._client.remove_pending_request(future)

@@ -10,6 +10,10 @@ failure).  A later run of the same study with the same base seed, number of samp
 run key takes the cell from the summary instead of simulating it, so a study longer than
 one machine's session advances across sessions: each writes every cell it finishes, and
 the next simulates only the rest.  A changed model (another run key) is simulated again.
+A run never drops what an earlier one recorded: cells it does not cover (other cells,
+designs, seeds or sample counts) stay in the file under ``kept``.  A cell is reused only
+when its verdicts are those of samples 0..N-1; one read with gaps from an interrupted
+results file (``--report-only``) is shown but written without verdicts.
 
 The report's Markdown keeps what follows :data:`KEEP_MARK` in an existing report (the
 hand-written findings), so that rewriting the tables after each cell loses none of it.
@@ -21,13 +25,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.metrics import wilson_interval
 from ..montecarlo.seeds import sample_seed
 from .paired import CellStats
 
 #: a line in a study's report after which the text is written by hand and kept
 KEEP_MARK = "<!-- written by hand below this line; `tethernet study` keeps it -->"
-
-_STAT_FIELDS = ("n", "successes", "p", "lo", "hi", "mean_t", "failures")
 
 
 @dataclass(frozen=True)
@@ -58,10 +61,20 @@ class CellRecord:
         return cls(CellStats.from_samples(label, design, samples), key, base_seed,
                    tuple(Verdict(int(s.seed), bool(s.success)) for s in samples), cpu)
 
+    @property
+    def complete_prefix(self) -> bool:
+        """Whether the verdicts are those of samples 0..n-1 of the base seed (a cell read
+        from an interrupted results file may have gaps): only such a cell is reusable."""
+        return all(v.seed == sample_seed(self.base_seed, i) for i, v in enumerate(self.verdicts))
+
     def to_json(self) -> dict:
-        return {**vars(self.stats), "key": self.key, "seed": self.base_seed,
-                "verdicts": "".join("1" if v.success else "0" for v in self.verdicts),
-                "cpu_time": self.cpu_time}
+        """The summary's entry; a cell with gaps is written without its verdicts (shown in
+        the report, never reused)."""
+        out = {**vars(self.stats), "key": self.key, "seed": self.base_seed,
+               "cpu_time": self.cpu_time}
+        if self.complete_prefix:
+            out["verdicts"] = "".join("1" if v.success else "0" for v in self.verdicts)
+        return out
 
     @classmethod
     def from_json(cls, rec: dict, label: str, design: str) -> CellRecord:
@@ -71,12 +84,17 @@ class CellRecord:
         if set(bits) - {"0", "1"}:
             raise ValueError("verdicts must be a string of 0 and 1")
         verdicts = tuple(Verdict(sample_seed(base, i), b == "1") for i, b in enumerate(bits))
-        fields = {f: rec[f] for f in _STAT_FIELDS}
-        fields["mean_t"] = math.nan if fields["mean_t"] is None else float(fields["mean_t"])
-        stats = CellStats(label, design, **fields)
-        if stats.n != len(verdicts) or stats.successes != sum(v.success for v in verdicts):
+        n, k = len(verdicts), sum(v.success for v in verdicts)
+        if int(rec["n"]) != n or int(rec["successes"]) != k:
             raise ValueError(f"cell {rec.get('label')!r}: n and successes disagree with its "
                              "verdicts")
+        mean_t = rec["mean_t"]
+        failures = rec["failures"]
+        if not isinstance(failures, dict):
+            raise ValueError("failures must be a mapping")
+        lo, hi = wilson_interval(k, n)            # from the verdicts, not from the file
+        stats = CellStats(label, design, n, k, k / n if n else math.nan, lo, hi,
+                          math.nan if mean_t is None else float(mean_t), dict(failures))
         return cls(stats, str(rec["key"]), base, verdicts, float(rec.get("cpu_time", 0.0)))
 
 
@@ -92,7 +110,7 @@ def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str
     except (OSError, ValueError):
         return {}
     out = {}
-    for rec in data.get("stats", []) if isinstance(data, dict) else []:
+    for rec in _entries(data):
         try:
             if int(rec["seed"]) != base_seed or int(rec["n"]) != n_samples:
                 continue
@@ -100,6 +118,39 @@ def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str
         except (KeyError, TypeError, ValueError):
             continue
         out[str(rec["key"])] = rec
+    return out
+
+
+def _entries(data) -> list:
+    """The cell entries of a summary's JSON: this run's ("stats") and earlier runs'
+    ("kept"); none when the file holds something else."""
+    if not isinstance(data, dict):
+        return []
+    out = []
+    for part in ("stats", "kept"):
+        got = data.get(part)
+        if isinstance(got, list):
+            out += [e for e in got if isinstance(e, dict)]
+    return out
+
+
+def earlier_records(path: str | Path, records) -> list[dict]:
+    """The entries of the summary at ``path`` that ``records`` (this run's CellRecords) do
+    not replace: another run key, base seed or sample count, in file order, once each."""
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, ValueError):
+        return []
+    mine = {(r.key, r.base_seed, r.stats.n) for r in records}
+    out, seen = [], set()
+    for e in _entries(data):
+        try:
+            ident = (str(e["key"]), int(e["seed"]), int(e["n"]))
+        except (KeyError, TypeError, ValueError):
+            continue
+        if ident not in mine and ident not in seen:
+            seen.add(ident)
+            out.append(e)
     return out
 
 
