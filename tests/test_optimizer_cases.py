@@ -171,6 +171,37 @@ def _strip_wall(lines):
     return [",".join(line.split(",")[:-1]) for line in lines]  # last column: wall time
 
 
+def test_a_run_resumes_from_its_settings_and_checkpoint_alone(tmp_path):
+    """run.json and checkpoint.json are a run's whole state: a killed run's directory
+    carried to another machine or session without its samples files (results files stay
+    out of git) resumes to the uninterrupted result, drawing again only the samples of
+    the design in flight, the racing and the validation."""
+    import shutil
+
+    kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
+              optimizer_options=FAST, validation_rule="estimate")
+    full_be = SyntheticBackend()
+    full = optimize_design("mass", backend=full_be, run_dir=tmp_path / "full", **kw)
+    per_design = np.cumsum([int(line.split(",")[13])
+                            for line in _history(tmp_path / "full")[1:]])
+    kill_after = (per_design[5] + per_design[-1]) // 2          # mid model-based phase
+    d = tmp_path / "killed"
+    with pytest.raises(KeyboardInterrupt):
+        optimize_design("mass", backend=SyntheticBackend(fail_after=kill_after), run_dir=d, **kw)
+    carried = tmp_path / "carried"
+    carried.mkdir()
+    for name in ("run.json", "checkpoint.json"):
+        shutil.copy(d / name, carried / name)
+    be = SyntheticBackend()
+    resumed = optimize_design("mass", backend=be, run_dir=carried, resume=True, **kw)
+    assert _strip_wall(_history(carried)) == _strip_wall(_history(tmp_path / "full"))
+    for key in ("best_design", "best_objective", "p_success", "evaluations", "validation",
+                "selection_rule", "episodes"):
+        assert resumed[key] == full[key], key
+    finished = int(per_design[per_design <= kill_after][-1])     # designs done before the kill
+    assert len(be.tasks) == len(full_be.tasks) - finished
+
+
 @pytest.mark.parametrize("sequential", [True, False])
 def test_synthetic_run_kill_and_resume_matches_uninterrupted(tmp_path, sequential):
     kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
