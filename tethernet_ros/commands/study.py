@@ -14,9 +14,10 @@ random numbers, with its table and figure written under docs/studies/.
 
 Every cell of every design runs on the same samples (sample i of base seed B uses noise
 seed B*1000003+i).  Each finished sample is appended to the study's results file, so an
-interrupted study resumes where it stopped.  The study runs cell by cell and rewrites its
-table, figure and summary (``<out>/<study>.json``, studies/summary.py) after each: the
-summary records every finished cell's run key and verdicts, and the same command run
+interrupted study resumes where it stopped.  The study runs cell by cell, a design at a
+time, and rewrites its table, figure and summary (``<out>/<study>.json``,
+studies/summary.py) after each: the summary records every finished cell's run key and
+verdicts, and the same command run
 later, without the results file (another machine, another session), takes those cells
 from it and simulates only the others.
 """
@@ -138,16 +139,15 @@ def run(args) -> int:
                 records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
                                                               got.samples)
         else:
-            # cell by cell, so that the summary and the report hold every finished cell
-            for c in cells:
-                todo = [specs[(c.label, d)] for d in designs if (c.label, d) not in records]
-                if not todo:
+            # cell by cell and design by design, so that the summary and the report hold
+            # every finished (cell, design) pair
+            for (label, d), spec in specs.items():
+                if (label, d) in records:
                     continue
-                for got in evaluate_many(todo, args.samples, args.seed, backend,
-                                         results_path=results, progress=_progress(args, c.label)):
-                    label, d = got.label.split("|", 1)
-                    records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
-                                                                  got.samples)
+                got = evaluate_many([spec], args.samples, args.seed, backend, results_path=results,
+                                    progress=_progress(args, spec.label))[0]
+                records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
+                                                              got.samples)
                 _write_report(args, base, cells, designs, records)
     finally:
         if backend is not None:
