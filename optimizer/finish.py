@@ -215,6 +215,7 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
         "best_objective": None, "p_success": None, "p_success_ci": None, "successes": None,
         "mass": None, "mean_completion_time": None, "validation": choice.validation,
         "table": rows, "run_dir": str(paths["settings"].parent),
+        "scenario": getattr(problem, "scenario", lambda: "")(),
         "files": {k: str(v) for k, v in paths.items()}, "backend": problem.describe(),
         "variables": list(problem.variable_names),
         "published": ({"design": case.reference, **po} if case.reference and

@@ -87,6 +87,8 @@ class DesignProblem(Protocol):
     def describe(self) -> str:
         """Where the episodes run (for reports)."""
 
+    # optional: ``scenario() -> str``, the problem's non-default scenario in words, which
+    # the summary and results.md state ('' or absent: the default one).
     # optional: ``machine_facts() -> dict``, the facts of the machine that decide whether
     # the problem's evaluations are the same bit for bit elsewhere (CPU features, library
     # versions); a run directory records them beside the optimiser's own

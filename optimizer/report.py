@@ -90,7 +90,8 @@ def results_markdown(summary: dict) -> str:
     n_val = summary.get("validation_samples") or next(
         (r["validation"]["samples"] for r in rows if r["validation"]), None)
     out = [f"# Case {summary['case_number']} results", "",
-           f"{summary['problem']}.", "",
+           f"{summary['problem']}." + (f" Scenario: {summary['scenario']}."
+                                        if summary.get("scenario") else ""), "",
            f"{summary['evaluations']} designs evaluated ({summary['seed_points']} seed points + "
            f"{max(summary['evaluations'] - summary['seed_points'], 0)} "
            f"iterations), {_samples_text(summary)}, "

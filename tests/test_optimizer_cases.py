@@ -171,13 +171,28 @@ def _strip_wall(lines):
     return [",".join(line.split(",")[:-1]) for line in lines]  # last column: wall time
 
 
+def test_a_non_default_scenario_is_stated_in_the_results(tmp_path):
+    """A run for a tumbling target says so in its summary and results.md; the default
+    scenario adds nothing."""
+    from tethernet_ros.core.policies import PolicyConfig
+    from tethernet_ros.core.tumble import TumbleConfig
+
+    assert SimulatorProblem(SyntheticBackend()).scenario() == ""
+    cfg = SimConfig().replace(tumble=TumbleConfig(rate_deg_s=2.0, axis="transverse"),
+                              policy=PolicyConfig(kind="adaptive"))
+    kw = dict(iterations=1, seed_points=3, samples=10, validation_samples=0,
+              optimizer_options=FAST)
+    got = optimize_design("mass", backend=SyntheticBackend(), config=cfg, run_dir=tmp_path, **kw)
+    words = "tumble: rate_deg_s 2, axis transverse; policy: kind adaptive"
+    assert got["scenario"] == words
+    assert f"Scenario: {words}." in (tmp_path / "results.md").read_text()
+
+
 def test_a_run_resumes_from_its_settings_and_checkpoint_alone(tmp_path):
     """run.json and checkpoint.json are a run's whole state: a killed run's directory
     carried to another machine or session without its samples files (results files stay
     out of git) resumes to the uninterrupted result, drawing again only the samples of
     the design in flight, the racing and the validation."""
-    import shutil
-
     kw = dict(iterations=6, seed_points=6, samples=10, validation_samples=20,
               optimizer_options=FAST, validation_rule="estimate")
     full_be = SyntheticBackend()

@@ -78,6 +78,20 @@ class SimulatorProblem:
     def describe(self) -> str:
         return self.backend.describe()
 
+    def scenario(self) -> str:
+        """The scenario settings that differ from the default (the target's tumble, the
+        sensing, the closing policy), e.g. 'tumble: rate_deg_s 2, axis transverse'; ''
+        for the default scenario (a target at rest, ideal sensing, the threshold)."""
+        parts = []
+        for name in ("tumble", "sensing", "policy"):
+            value = getattr(self.config, name)
+            default = type(value)()
+            changed = [f"{k} {v:g}" if isinstance(v, float) else f"{k} {v}"
+                       for k, v in vars(value).items() if getattr(default, k) != v]
+            if changed:
+                parts.append(f"{name}: " + ", ".join(changed))
+        return "; ".join(parts)
+
     def machine_facts(self) -> dict:
         """This machine's facts (:func:`tethernet_ros.machine.machine_facts`), which a run
         directory records."""
