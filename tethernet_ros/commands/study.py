@@ -120,16 +120,16 @@ def run(args) -> int:
     try:
         source = getattr(backend, "episode_source", None)
         earlier = {} if args.no_summary else reusable_cells(summary_path, args.seed, args.samples)
-        records: dict[tuple[str, str], CellRecord] = {}
-        for (label, d), spec in specs.items():
-            key = run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
-            if key in earlier:
-                records[(label, d)] = CellRecord.from_json(earlier[key], label, d)
+        keys = {ld: run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
+                for ld, spec in specs.items()}
+        records: dict[tuple[str, str], CellRecord] = {
+            (label, d): CellRecord.from_json(earlier[key], label, d)
+            for (label, d), key in keys.items() if key in earlier}
         if records:
             print(f"{summary_path}: {len(records)} of {len(specs)} cells taken as recorded "
                   "(same run key, seed and samples); the others are simulated", file=sys.stderr)
         if args.plan:
-            print(_plan(args, cells, designs, specs, records, results, source))
+            print(_plan(args, cells, designs, keys, records, results))
             return 0
         if args.report_only:
             todo = [s for k, s in specs.items() if k not in records]
@@ -156,9 +156,9 @@ def run(args) -> int:
     return 0
 
 
-def _plan(args, cells, designs, specs, records, results: Path, source) -> str:
-    """--plan: the study's episodes left and their estimated CPU time."""
-    from ..montecarlo.keys import run_key
+def _plan(args, cells, designs, keys: dict, records, results: Path) -> str:
+    """--plan: the study's episodes left and their estimated CPU time (``keys``: each
+    (cell, design) pair's run key)."""
     from ..montecarlo.results_file import ResultsFile
     from ..montecarlo.seeds import sample_seed
     from ..studies.summary import plan_text
@@ -167,11 +167,9 @@ def _plan(args, cells, designs, specs, records, results: Path, source) -> str:
     known = {(r.key, r.seed) for _rec, r in ResultsFile(results).records()}
     seeds = [sample_seed(args.seed, i) for i in range(args.samples)]
     in_results = {}
-    for (label, d), spec in specs.items():
-        if (label, d) in records:
-            continue
-        key = run_key(spec.design, spec.noise_model, spec.config, episode_source=source)
-        in_results[(label, d)] = sum(1 for s in seeds if (key, s) in known)
+    for pair, key in keys.items():
+        if pair not in records:
+            in_results[pair] = sum(1 for s in seeds if (key, s) in known)
     import os
 
     workers = args.workers if args.workers else (os.cpu_count() or 1)   # default: all cores
