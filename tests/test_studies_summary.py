@@ -71,6 +71,16 @@ def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
     assert "3 of 3 cells taken as recorded" in fourth.stderr
     assert not (tmp_path / "d.jsonl").exists() or not sample_lines(tmp_path / "d.jsonl")
 
+    # --name: the table, summary and figure under that name; the study's own are untouched
+    before = (tmp_path / "docs" / "tumbling.json").read_text()
+    named = study(tmp_path, "d.jsonl", "rest threshold", samples=1, extra=["--name", "small"])
+    assert named.returncode == 0, named.stderr
+    assert "taken as recorded" not in named.stderr
+    assert {p.name for p in (tmp_path / "docs").glob("small.*")} == {"small.md", "small.json",
+                                                                     "small.png"}
+    assert json.loads((tmp_path / "docs" / "small.json").read_text())["stats"][0]["n"] == 1
+    assert (tmp_path / "docs" / "tumbling.json").read_text() == before
+
 
 LO, HI = wilson_interval(1, 2)
 REC = {"label": "rest threshold", "design": "time-min", "n": 2, "successes": 1, "p": 0.5,

@@ -46,7 +46,7 @@ def add_arguments(p):
                        help=f"compare: only these run keys in --{side} (comma-separated prefixes)")
     p.add_argument("--labels", default="a,b", metavar="A,B", help="compare: the two runs' labels")
     p.add_argument("--name", default=None, metavar="NAME",
-                   help="file name of the table and figure (default: the study's name)")
+                   help="file name of the table, summary and figure (default: the study's name)")
     p.add_argument("--designs", default=",".join(REFERENCE_DESIGNS), metavar="A,B",
                    help="reference designs or design YAML files (default: the four reference "
                         "designs)")
@@ -115,7 +115,7 @@ def run(args) -> int:
     results.parent.mkdir(parents=True, exist_ok=True)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
-    summary_path = outdir / f"{args.study}.json"
+    summary_path = outdir / f"{args.name or args.study}.json"
     backend = None if args.report_only or args.plan else backend_from_args(args)
     try:
         source = getattr(backend, "episode_source", None)
@@ -211,7 +211,7 @@ def _write_report(args, base, cells, designs, records) -> str:
             paired[(c.label, d)] = PairedStats.from_samples(a.stats, b.stats, a.verdicts,
                                                             b.verdicts)
     outdir = Path(args.out)
-    name = f"{args.study}"
+    name = args.name or args.study
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
     if args.study == "tumbling":
         from ..studies.tumbling import plot_tumbling, tumbling_table
