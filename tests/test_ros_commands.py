@@ -90,6 +90,15 @@ def test_flags_set_the_nested_settings_over_the_config_file_and_the_design_file(
                          "[0, 5] s"),
     (["--controller", "example_controller"], "--controller needs --via ros"),
     (["--lockstep"], "--lockstep needs --via ros"),
+    (["--node-param", "sim_node.decision_timeout=20"], "--node-param needs --via ros"),
+    (["--via", "ros", "--node-param", "sim_node.decision_timeout=-1"],
+     "--node-param sim_node.decision_timeout: got -1.0; must be a number in [0.01, 3600] s"),
+    (["--via", "ros", "--node-param", "sim_node.warm_up=yes"],
+     "--node-param sim_node.warm_up: got 'yes'; must be true or false"),
+    (["--via", "ros", "--node-param", "sim_node.decision_time=20"],
+     "--node-param 'sim_node.decision_time=20': sim_node has no parameter 'decision_time'"),
+    (["--via", "ros", "--node-param", "capture_node.settle_time=3"],
+     "--node-param capture_node.settle_time: set by the command itself"),
 ])
 def test_bad_values_name_the_flag_field_and_range(argv, line):
     out = cli("capture", "--design", "time-min", *argv)

@@ -215,6 +215,9 @@ def test_user_controller_measured_through_two_suites(tmp_path):
         [sys.executable, "-m", "tethernet_ros.cli", "validate", "--design", "time-min",
          "--samples", str(n), "--seed", "2", "--config", str(cfg), "--via", "ros",
          "--controller", "example_controller", "--workers", "2", "--json", "--per-sample",
+         # (a loaded machine once kept the example controller past the default 5 s)
+         "--node-param", "sim_node.decision_timeout=30", "--node-param",
+         "capture_node.stall_timeout=60",
          "--no-progress", "--results", str(tmp_path / "ctl.jsonl")],
         capture_output=True, text=True, cwd=ROOT, timeout=450,
         env={**os.environ, "ROS_DOMAIN_ID": str(BASE_DOMAIN + 1)})    # and + 2

@@ -7,7 +7,8 @@ from pathlib import Path
 from ..core.episode import run_episode
 from .common import (add_config_argument, add_design_argument, add_noise_arguments,
                      add_ros_arguments, check_ros_arguments, config_from_args,
-                     controller_config, design_from_args, noise_model_from_args, print_json)
+                     controller_config, design_from_args, node_params_from_args,
+                     noise_model_from_args, print_json)
 
 NAME = "capture"
 HELP = "simulate one capture of a design (nominal or one noise sample)"
@@ -51,7 +52,8 @@ def run(args) -> int:
 
         result, bag_path = capture_via_ros(design, seed=args.seed, noise_model=model, config=config,
                                            record_bag=not args.no_bag, bag_name=args.bag_name,
-                                           lockstep=args.lockstep, controller=args.controller)
+                                           lockstep=args.lockstep, controller=args.controller,
+                                           params=node_params_from_args(args))
     else:
         result = run_episode(design, sample, config)
     wall = time.perf_counter() - t0

@@ -214,6 +214,11 @@ def add_ros_arguments(p: argparse.ArgumentParser, via: bool = True) -> None:
                    help="with --via ros: your controller node decides when to close, in place "
                         "of the built-in policy (a console script or a Node class; docs/ros.md, "
                         "the controller contract), e.g. example_controller")
+    p.add_argument("--node-param", action="append", default=[], metavar="NODE.NAME=VALUE",
+                   help="with --via ros: a node parameter of every suite (repeatable), e.g. "
+                        "sim_node.decision_timeout=20 for a slow controller on a loaded "
+                        "machine (timeouts, rates, queue depths: docs/ros.md; those the "
+                        "command sets from the configuration are refused)")
     p.add_argument("--lockstep", action="store_true",
                    help="with --via ros: the built-in closing policy runs through the ROS loop "
                         "(sensor_node, actuator_node) every control period, not in the kernel "
@@ -222,10 +227,10 @@ def add_ros_arguments(p: argparse.ArgumentParser, via: bool = True) -> None:
 
 def check_ros_arguments(args) -> None:
     if getattr(args, "via", "library") != "ros":
-        for flag in ("controller", "lockstep"):
+        for flag in ("controller", "lockstep", "node_param"):
             if getattr(args, flag, None):
-                raise UserError(f"--{flag} needs --via ros (a controller node decides through "
-                                "the ROS suite)")
+                raise UserError(f"--{flag.replace('_', '-')} needs --via ros (it acts on the "
+                                "ROS suite's nodes)")
         return
     if getattr(args, "scheduler", None) is not None:
         raise UserError("--via ros runs the episodes through ROS suites (--workers K of them); "
@@ -251,6 +256,21 @@ def controller_label(args) -> str:
     return "_ctl-" + "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
 
 
+def node_params_from_args(args) -> dict | None:
+    """--node-param NODE.NAME=VALUE items as RosSuite's extra parameters per node (None:
+    none given); a bad item is a UserError naming it and what is allowed."""
+    from ..ros.parameters import ParameterError, parse_override
+
+    params: dict = {}
+    for item in getattr(args, "node_param", None) or ():
+        try:
+            node, name, value = parse_override(item)
+        except ParameterError as e:
+            raise UserError(f"--node-param {e}") from None
+        params.setdefault(node, {})[name] = value
+    return params or None
+
+
 def backend_from_args(args):
     """The EpisodeBackend chosen by --via ros (RosBackend of --workers suites, default 1),
     else by --workers / --scheduler."""
@@ -258,7 +278,8 @@ def backend_from_args(args):
         from ..ros.backend import RosBackend
 
         return RosBackend(workers=args.workers or 1, lockstep=getattr(args, "lockstep", False),
-                          controller=getattr(args, "controller", None))
+                          controller=getattr(args, "controller", None),
+                          params=node_params_from_args(args))
     from ..montecarlo import make_backend
 
     return make_backend(workers=args.workers, scheduler=args.scheduler)

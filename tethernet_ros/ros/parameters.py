@@ -275,6 +275,52 @@ def problem(node_name: str, name: str, value) -> str:
     return f"{name}: {what}" if what else ""
 
 
+def set_by_the_run(node: str, name: str) -> bool:
+    """Whether a Monte Carlo command sets this parameter itself from the episode's
+    configuration, noise model and controller (RosSuite's node_parameters): a command
+    line's override would make the results differ from their run key's."""
+    return (node, name) in {("capture_node", "settle_time"), ("capture_node", "horizon"),
+                            ("capture_node", "sim_config"), ("capture_node", "bag_dir"),
+                            ("capture_node", "lockstep"), ("actuator_node", "builtin_policy")} \
+        or (node == "actuator_node" and name.startswith("noise."))
+
+
+def parse_override(item: str) -> tuple[str, str, object]:
+    """``NODE.NAME=VALUE`` (a command line's node parameter) as (node, name, value), the
+    value of the parameter's type (bool: true/false), checked against its rule; raises
+    ParameterError naming what is wrong and what is allowed."""
+    where, sep, raw = item.partition("=")
+    node, _, name = where.partition(".")
+    if not sep or not name:
+        raise ParameterError(f"{item!r}: expected NODE.NAME=VALUE, e.g. "
+                             "sim_node.decision_timeout=20")
+    if node not in PARAMETERS:
+        raise ParameterError(f"{item!r}: no node {node!r}; nodes: {', '.join(PARAMETERS)}")
+    spec = PARAMETERS[node].get(name)
+    if spec is None:
+        raise ParameterError(f"{item!r}: {node} has no parameter {name!r}; its parameters: "
+                             f"{', '.join(PARAMETERS[node])}")
+    if set_by_the_run(node, name):
+        raise ParameterError(f"{node}.{name}: set by the command itself (from --config, the "
+                             "noise options, --lockstep or --controller), not by --node-param")
+    kind = type(spec.default)
+    try:
+        if kind is bool:
+            if raw.lower() not in ("true", "false"):
+                raise ValueError(raw)
+            value = raw.lower() == "true"
+        else:
+            value = kind(raw)
+    except ValueError:
+        raise ParameterError(f"{node}.{name}: got {raw!r}; must be "
+                             + ("true or false" if kind is bool else f"of type {kind.__name__}")
+                             + (f" ({spec.must})" if spec.must else "")) from None
+    what = problem(node, name, value)
+    if what:
+        raise ParameterError(f"{node}.{what}")
+    return node, name, value
+
+
 def descriptor(name: str, spec: Param):
     """The ParameterDescriptor of a parameter: description, range, rule in words."""
     from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
