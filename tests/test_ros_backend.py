@@ -111,13 +111,13 @@ def test_cli_optimize_via_ros(tmp_path):
         [sys.executable, "-m", "tethernet_ros.cli", "optimize", "--case", "time", "--via", "ros",
          "--seed-points", "2", "--iterations", "0", "--samples", "1", "--validation-samples", "1",
          "--validation-rule", "estimate",        # (Wilson, the default, needs >= 189 samples)
-         "--validation-rule", "estimate",
+         "--workers", "2", "--node-param", "capture_node.stall_timeout=60",   # 2 suites
          "--config", str(cfg), "--run-dir", str(tmp_path / "run"), "--keep-bags", "--json",
          "--gp-restarts", "0"],
         capture_output=True, text=True, cwd=ROOT, timeout=500)
     assert out.returncode == 0, out.stderr[-3000:]
     d = json.loads(out.stdout)
-    assert d["evaluations"] == 2 and "ROS 2 suite" in d["backend"]
+    assert d["evaluations"] == 2 and "ROS 2 suite x 2" in d["backend"]
     # a bag per episode: the evaluations', and those of racing and validation (if any)
     episodes = d.get("episodes_total", 2 + (1 if d["best_design"] else 0))
     assert len(list((tmp_path / "run" / "bags").iterdir())) == episodes

@@ -271,15 +271,17 @@ def node_params_from_args(args) -> dict | None:
     return params or None
 
 
-def backend_from_args(args):
-    """The EpisodeBackend chosen by --via ros (RosBackend of --workers suites, default 1),
-    else by --workers / --scheduler."""
+def backend_from_args(args, bag_dir=None, keep_bags: bool = False):
+    """The EpisodeBackend chosen by --via ros (RosBackend of --workers suites, default 1;
+    ``bag_dir`` / ``keep_bags`` as RosBackend takes them), else by --workers /
+    --scheduler."""
     if getattr(args, "via", "library") == "ros":
         from ..ros.backend import RosBackend
 
         return RosBackend(workers=args.workers or 1, lockstep=getattr(args, "lockstep", False),
                           controller=getattr(args, "controller", None),
-                          params=node_params_from_args(args))
+                          params=node_params_from_args(args), bag_dir=bag_dir,
+                          keep_bags=keep_bags)
     from ..montecarlo import make_backend
 
     return make_backend(workers=args.workers, scheduler=args.scheduler)

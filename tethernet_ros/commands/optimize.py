@@ -20,7 +20,8 @@ from pathlib import Path
 from optimizer.settings import NEW_RUN_DEFAULTS, SELECTION_LEVELS, RunSettings, SettingError
 
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
-                     backend_from_args, check_backend_arguments, config_from_args,
+                     add_ros_arguments, backend_from_args, check_backend_arguments,
+                     check_ros_arguments, config_from_args, controller_config,
                      noise_model_from_args, print_json)
 
 NAME = "optimize"
@@ -101,9 +102,7 @@ def add_arguments(p):
                         "sampling as soon as its feasibility at --samples is decided, e.g. "
                         "at the 3rd failure for 100 samples and P*_s >= 0.98)")
     add_backend_arguments(p)
-    p.add_argument("--via", choices=("library", "ros"), default="library",
-                   help="ros: run every episode through the ROS 2 suite's RunCapture service "
-                        "and read its result back from the recorded MCAP bag (one at a time)")
+    add_ros_arguments(p)
     p.add_argument("--keep-bags", action="store_true",
                    help="with --via ros: keep every episode's bag (in RUN_DIR/bags)")
     p.add_argument("--run-dir", default=None, metavar="DIR",
@@ -148,9 +147,7 @@ def check_arguments(args) -> None:
     except SettingError as exc:
         raise UserError(exc.with_flags()) from None
     check_backend_arguments(args)
-    if args.via == "ros" and (args.workers is not None or args.scheduler is not None):
-        raise UserError("--via ros runs the episodes through the ROS suite; it cannot be "
-                        "combined with --workers or --scheduler")
+    check_ros_arguments(args)
     if args.keep_bags and args.via != "ros":
         raise UserError("--keep-bags only applies with --via ros")
     if args.gp_restarts is not None and args.gp_restarts < 0:
@@ -288,18 +285,13 @@ def run(args) -> int:
     model = noise_model_from_args(args)
     over = {k: v for k, v in (("settle_time", args.settle_time), ("horizon", args.horizon))
             if v is not None}
-    config = config_from_args(args, **over)
+    config = controller_config(args, config_from_args(args, **over))
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(case)
     if args.resume and (run_dir / "run.json").exists() and not (run_dir / "checkpoint.json").exists():
         print(f"tethernet optimize: {run_dir} was stopped before its first design finished; "
               "resuming from its samples", file=sys.stderr)
-    if args.via == "ros":
-        from ..ros.backend import RosBackend
-
-        backend = RosBackend(bag_dir=run_dir / "bags" if args.keep_bags else None,
-                             keep_bags=args.keep_bags)
-    else:
-        backend = backend_from_args(args)
+    backend = backend_from_args(args, bag_dir=run_dir / "bags" if args.keep_bags else None,
+                                keep_bags=args.keep_bags)
     bar = OptimizeProgress(case, args.no_progress)
     t0 = time.perf_counter()
     try:
