@@ -29,3 +29,57 @@ def test_report_of_a_partial_grid(tmp_path):
     assert "| design | flat |" in text and "| a | 8 / - |" in text
     plot_tumbling(["a", "b"], stats, tmp_path / "t.png", "partial")
     assert (tmp_path / "t.png").stat().st_size > 1000
+
+
+def test_long_axis_against_the_line_of_sight_follows_the_phase():
+    """About the flat axis (body y) with no axis tilt, the long axis (body x) turned by the
+    phase phi has |a_z| = |sin phi| whatever the orientation noise about the line of sight;
+    a roll about the long axis leaves it across the line of sight."""
+    import math
+
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.core.tumble import TumbleConfig
+    from tethernet_ros.studies.tumbling import attitude_bin, long_axis_los
+
+    design = REFERENCE_DESIGNS["mass-min"]
+    noise = NoiseModel(sigma_spin_axis_deg=0.0)
+    flat = SimConfig().replace(tumble=TumbleConfig(rate_deg_s=2.0, axis="flat"))
+    roll = SimConfig().replace(tumble=TumbleConfig(rate_deg_s=2.0, axis="long"))
+    for seed in range(6):
+        phi = noise.sample(seed).spin_phase
+        assert math.isclose(long_axis_los(design, flat, noise, seed), abs(math.sin(phi)),
+                            abs_tol=1e-12)
+        assert long_axis_los(design, roll, noise, seed) < 1e-12
+    assert [attitude_bin(a) for a in (0.0, 0.49, 0.5, 0.89, 0.9, 1.0)] == [0, 0, 1, 1, 2, 2]
+
+
+def test_attitude_table_splits_each_cell_by_bin():
+    """The table counts each policy's successes per bin of |a_z|, from the samples' seeds."""
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.montecarlo.seeds import sample_seed
+    from tethernet_ros.studies.cells import tumbling_cells
+    from tethernet_ros.studies.summary import CellRecord, Verdict
+    from tethernet_ros.studies.tumbling import attitude_bin, attitude_table, long_axis_los
+
+    design = REFERENCE_DESIGNS["baseline"]
+    cells = tumbling_cells(SimConfig())
+    cell = next(c for c in cells if c.label == "flat 2 threshold")
+    seeds = [sample_seed(0, i) for i in range(40)]
+    bins = [attitude_bin(long_axis_los(design, cell.config, cell.noise, s)) for s in seeds]
+    # successes exactly where the stage lies across the line of sight
+    verdicts = tuple(Verdict(s, b == 0) for s, b in zip(seeds, bins))
+    rec = CellRecord(_stats("flat 2 threshold", "baseline", sum(b == 0 for b in bins), 40),
+                     "k", 0, verdicts)
+    text = attitude_table(["baseline"], cells, {("flat 2 threshold", "baseline"): rec},
+                          {"baseline": design})
+    n = [bins.count(k) for k in range(3)]
+    assert all(n), n        # 40 uniform phases reach every bin
+    assert f"| flat | 2 | baseline | {n[0]}/{n[0]} / - | 0/{n[1]} / - | 0/{n[2]} / - |" in text
+    # a roll about the long axis keeps every sample across the line of sight: left out
+    roll = CellRecord(_stats("long 2 threshold", "baseline", 40, 40), "k", 0,
+                      tuple(Verdict(s, True) for s in seeds))
+    assert attitude_table(["baseline"], cells, {("long 2 threshold", "baseline"): roll},
+                          {"baseline": design}) == ""

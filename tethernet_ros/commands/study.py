@@ -148,11 +148,11 @@ def run(args) -> int:
                                     progress=_progress(args, spec.label))[0]
                 records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
                                                               got.samples)
-                _write_report(args, base, cells, designs, records)
+                _write_report(args, base, cells, designs, records, design_of)
     finally:
         if backend is not None:
             backend.close()
-    print(_write_report(args, base, cells, designs, records))
+    print(_write_report(args, base, cells, designs, records, design_of))
     return 0
 
 
@@ -192,9 +192,10 @@ def _progress(args, label: str):
     return progress
 
 
-def _write_report(args, base, cells, designs, records) -> str:
+def _write_report(args, base, cells, designs, records, design_of) -> str:
     """The study's table (.md, keeping its hand-written part), summary (.json, every
-    cell's record) and figure (.png) from the cells recorded so far; returns the table."""
+    cell's record) and figure (.png) from the cells recorded so far; returns the table
+    (``design_of``: each design's name or file -> its Design)."""
     from ..studies.paired import PairedStats
     from ..studies.report import comparison_table, plot_study, study_table
     from ..studies.summary import earlier_records, keep_written_text
@@ -214,8 +215,11 @@ def _write_report(args, base, cells, designs, records) -> str:
     name = args.name or args.study
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
     if args.study == "tumbling":
-        from ..studies.tumbling import plot_tumbling, tumbling_table
+        from ..studies.tumbling import attitude_table, plot_tumbling, tumbling_table
         table = tumbling_table(designs, stats)
+        by_attitude = attitude_table(designs, cells, records, design_of)
+        if by_attitude:
+            table += "\n" + by_attitude
     elif len(cells) == 2:
         table = comparison_table(designs, paired, cells[1].label)
     else:

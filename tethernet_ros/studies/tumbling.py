@@ -119,8 +119,9 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
                         continue
                     xs.append(r)
                     ys.append(100 * c.p)
-                    lo.append(100 * (c.p - c.lo))
-                    hi.append(100 * (c.hi - c.p))
+                    # (clamped: a Wilson bound may sit on p within round-off)
+                    lo.append(max(0.0, 100 * (c.p - c.lo)))
+                    hi.append(max(0.0, 100 * (c.hi - c.p)))
                 if xs:
                     ax.errorbar(xs, ys, yerr=[lo, hi], fmt=style, marker="o", ms=3, capsize=2,
                                 color=colours[k % len(colours)],
@@ -138,3 +139,77 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+#: bins of |a_z|, the cosine between the stage's long axis and the line of sight at launch:
+#: lying across it (angle > 60 deg), oblique, and end-on (within 26 deg of it)
+ATTITUDE_BINS = (0.0, 0.5, 0.9, 1.0)
+
+
+def long_axis_los(design, config, noise, seed: int) -> float:
+    """|a_z| at launch of the sample drawing ``seed``: the cosine between the stage's long
+    axis and the line of sight (z), from the orientation noise and the tumble's phase and
+    axis as the episode sets them (``core.scenario.world_for``, ``initial_attitude``)."""
+    import numpy as np
+
+    from ..core.kernel import quat_to_matrix
+    from ..core.scenario import initial_attitude, world_for
+
+    world = world_for(design, noise.sample(seed), config.tumble)
+    q, _w, _l = initial_attitude(world, np.ones(3))
+    return abs(float(quat_to_matrix(q)[2, 0]))
+
+
+def attitude_bin(a_z: float) -> int:
+    """Index of the ATTITUDE_BINS bin that holds a_z (the last one includes 1)."""
+    for k in range(len(ATTITUDE_BINS) - 2):
+        if a_z < ATTITUDE_BINS[k + 1]:
+            return k
+    return len(ATTITUDE_BINS) - 2
+
+
+def attitude_table(designs: list[str], cells: list, records: dict, design_of: dict) -> str:
+    """Markdown: for each tumbling cell (axis, rate) whose samples do not all lie across the
+    line of sight, each design's successes per bin of |a_z| at launch, threshold / adaptive
+    (``records``: (cell label, design) -> CellRecord with verdicts in sample order)."""
+    by_label = {c.label: c for c in cells}
+    edges = ATTITUDE_BINS
+    heads = [f"{edges[k]:g} <= a_z < {edges[k + 1]:g}" if k < len(edges) - 2
+             else f"a_z >= {edges[k]:g}" for k in range(len(edges) - 1)]
+    rows = []
+    for axis in TUMBLE_AXES:
+        for rate in TUMBLE_RATES:
+            cell = by_label.get(_label(axis, rate, "threshold"))
+            if cell is None:
+                continue
+            for d in designs:
+                counts = {}
+                for policy in POLICIES:
+                    rec = records.get((_label(axis, rate, policy), d))
+                    if rec is None or not rec.verdicts:
+                        continue
+                    n = [0] * (len(edges) - 1)
+                    ok = [0] * (len(edges) - 1)
+                    for v in rec.verdicts:
+                        k = attitude_bin(long_axis_los(design_of[d], cell.config, cell.noise,
+                                                       v.seed))
+                        n[k] += 1
+                        ok[k] += int(v.success)
+                    counts[policy] = (ok, n)
+                if not counts or all(sum(n[1:]) == 0 for _ok, n in counts.values()):
+                    continue
+                parts = []
+                for k in range(len(edges) - 1):
+                    got = [f"{counts[p][0][k]}/{counts[p][1][k]}" if p in counts else "-"
+                           for p in POLICIES]
+                    parts.append(" / ".join(got))
+                rows.append(f"| {axis} | {rate:g} | {d} | " + " | ".join(parts) + " |")
+    if not rows:
+        return ""
+    return ("Successes by the stage's attitude at launch, threshold / adaptive: a_z = |cos| of "
+            "the angle between its long axis and the line of sight (0: lying across it, 1: "
+            "end-on), from each sample's orientation noise and tumble phase.  Cells whose "
+            "samples all lie across the line of sight (a_z < "
+            f"{edges[1]:g}) are left out.\n\n"
+            "| axis | rate (deg/s) | design | " + " | ".join(heads) + " |\n"
+            "|---|---|---|" + "---|" * len(heads) + "\n" + "\n".join(rows) + "\n")
