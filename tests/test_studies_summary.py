@@ -132,3 +132,20 @@ def test_the_hand_written_part_is_kept(tmp_path):
     assert keep_written_text(md, "# table\n") == f"# table\n\n{KEEP_MARK}\n"
     md.write_text(f"# old table\n\n{KEEP_MARK}\n## Findings\n")
     assert keep_written_text(md, "# new table\n") == f"# new table\n\n{KEEP_MARK}\n## Findings\n"
+
+
+def test_a_design_file_with_its_own_tumble_joins_a_study(tmp_path, capsys):
+    """A design file that carries a tumble (a tumbling Case's choice) is taken by
+    ``tethernet study``, each cell setting the tumble; --plan simulates nothing."""
+    from tethernet_ros import cli
+
+    f = tmp_path / "d.yaml"
+    f.write_text("m_c: 1.0\nL_n: 20.0\nr_n: 0.001\nd_L: 30.0\nV_e: [2.5, 3.0, 7.5]\nd_c: 2.5\n"
+                 "tumble: {rate_deg_s: 2.0, axis: transverse}\n")
+    code = cli.main(["study", "tumbling", "--designs", f"{f},mass-min", "--samples", "4",
+                     "--out", str(tmp_path / "s"), "--results", str(tmp_path / "r.jsonl"),
+                     "--plan"])
+    out = capsys.readouterr()
+    assert code == 0
+    assert "its tumble" in out.err and "is not used" in out.err
+    assert f"| {f} | 128 |" in out.out                     # 32 cells x 4 samples

@@ -29,7 +29,7 @@ from pathlib import Path
 
 from ..core.design import REFERENCE_DESIGNS
 from .common import (add_backend_arguments, add_config_argument, backend_from_args,
-                     check_backend_arguments, config_from_args, json_clean)
+                     check_backend_arguments, config_from_args, json_clean, read_design_file)
 
 NAME = "study"
 HELP = "model and method studies over common random numbers (tables and figures in docs/studies)"
@@ -94,8 +94,11 @@ def run(args) -> int:
         if d in REFERENCE_DESIGNS:
             design_of[d] = REFERENCE_DESIGNS[d]
         elif d.endswith((".yaml", ".yml")) and Path(d).is_file():
-            from ..core.design import load_design
-            design_of[d] = load_design(d)
+            # a design file's own scenario (its tumble:) gives way to each cell's
+            design_of[d], tumble = read_design_file(d)
+            if tumble is not None:
+                print(f"{d}: its tumble {tumble} is not used; each cell of the study sets "
+                      "its own", file=sys.stderr)
         else:
             raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)} "
                             "or a design YAML file")
