@@ -97,22 +97,23 @@ def tumbling_table(designs: list[str], stats: dict) -> str:
 
 
 def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> None:
-    """P*_s against rate, one panel per axis, a colour per design, the threshold policy
-    solid and the adaptive dashed, with Wilson intervals as bars."""
+    """P*_s (top row, Wilson intervals as bars) and mean T (bottom row) against rate, one
+    column per axis, a colour per design, the threshold policy solid and the adaptive
+    dashed; one legend beside the panels."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     panels = _measured_axes(stats)
-    fig, axes = plt.subplots(1, len(panels), figsize=(5 * len(panels) + 1, 4.2),
-                             sharey=True, squeeze=False)
-    axes = axes[0]
+    fig, axes = plt.subplots(2, len(panels), figsize=(4.6 * len(panels) + 2.6, 7.4),
+                             sharey="row", sharex="col", squeeze=False)
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, axis in zip(axes, panels):
+    for col, axis in enumerate(panels):
+        top, bottom = axes[0][col], axes[1][col]
         rates = measured_rates(stats, axis)
         for k, d in enumerate(designs):
             for policy, style in zip(POLICIES, ("-", "--")):
-                xs, ys, lo, hi = [], [], [], []
+                xs, ys, lo, hi, ts = [], [], [], [], []
                 for r in rates:
                     c = _cell(stats, axis, r, policy, d)
                     if c is None or not c.n:
@@ -122,21 +123,26 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
                     # (clamped: a Wilson bound may sit on p within round-off)
                     lo.append(max(0.0, 100 * (c.p - c.lo)))
                     hi.append(max(0.0, 100 * (c.hi - c.p)))
+                    ts.append(c.mean_t)
                 if xs:
-                    ax.errorbar(xs, ys, yerr=[lo, hi], fmt=style, marker="o", ms=3, capsize=2,
-                                color=colours[k % len(colours)],
-                                label=f"{Path(d).stem} {policy}")
-        ax.axhline(100 * FLOOR, color="grey", lw=0.8, ls=":")
-        ax.axhline(98.0, color="grey", lw=0.8, ls="-.")
-        ax.set_xscale("symlog", linthresh=0.5)
-        ax.set_xticks(rates)
-        ax.set_xticklabels([f"{r:g}" for r in rates])
-        ax.set_xlabel(f"tumble rate about the {axis} axis (deg/s)")
-        ax.set_title(axis)
-    axes[0].set_ylabel("P*_s (%)")
-    axes[-1].legend(fontsize=6, loc="lower left")
+                    colour = colours[k % len(colours)]
+                    top.errorbar(xs, ys, yerr=[lo, hi], fmt=style, marker="o", ms=3, capsize=2,
+                                 color=colour, label=f"{Path(d).stem} {policy}")
+                    bottom.plot(xs, ts, style, marker="o", ms=3, color=colour)
+        top.axhline(100 * FLOOR, color="grey", lw=0.8, ls=":")
+        top.axhline(98.0, color="grey", lw=0.8, ls="-.")
+        top.set_title(axis)
+        for ax in (top, bottom):
+            ax.set_xscale("symlog", linthresh=0.5)
+            ax.set_xticks(rates)
+            ax.set_xticklabels([f"{r:g}" for r in rates])
+        bottom.set_xlabel(f"tumble rate about the {axis} axis (deg/s)")
+    axes[0][0].set_ylabel("P*_s (%)")
+    axes[1][0].set_ylabel("mean T (s)")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="center right")
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1 - 2.4 / (4.6 * len(panels) + 2.6), 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
