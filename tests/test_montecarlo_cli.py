@@ -179,3 +179,29 @@ def test_sigterm_stops_the_workers_and_keeps_the_samples(tmp_path):
     again = tethernet("validate", "--design", "time-min", "--samples", str(done), "--workers", "1",
                       "--results", str(res), "--json", "--no-progress")
     assert again.returncode == 0 and json.loads(again.stdout)["samples"] == done
+
+
+def test_validate_of_a_tumbling_target_splits_by_attitude(tmp_path):
+    """Under a tumble, validate counts successes per bin of the stage's attitude at launch
+    (studies.tumbling); at rest it prints no such table."""
+    from tethernet_ros.core.tumble import TumbleConfig
+    from tethernet_ros.studies.tumbling import attitude_counts
+
+    res = tmp_path / "t.jsonl"
+    args = ["validate", "--design", "time-min", "--samples", "4", "--settle-time", "1",
+            "--horizon", "2", "--workers", "0", "--results", str(res), "--no-progress",
+            "--tumble-rate", "8", "--tumble-axis", "flat"]
+    out = tethernet(*args, "--json")
+    assert out.returncode == 0, out.stderr
+    d = json.loads(out.stdout)
+    cfg = SimConfig(settle_time=1.0, horizon=2.0).replace(tumble=TumbleConfig(8.0, "flat"))
+    ok, n = attitude_counts(REFERENCE_DESIGNS["time-min"], cfg, NoiseModel(),
+                            [(i, False) for i in range(4)])
+    assert [b["samples"] for b in d["by_attitude"]] == n and sum(n) == 4
+    assert [b["successes"] for b in d["by_attitude"]] == [0, 0, 0]   # 2 s: none captured
+    text = tethernet(*args)
+    assert "| time-min | 0/" in text.stdout and "a_z >= 0.9" in text.stdout
+    rest = tethernet("validate", "--design", "time-min", "--samples", "1", "--settle-time", "1",
+                     "--horizon", "2", "--workers", "0", "--results", str(tmp_path / "r.jsonl"),
+                     "--no-progress")
+    assert rest.returncode == 0 and "a_z" not in rest.stdout

@@ -152,16 +152,21 @@ def run(args) -> int:
         backend.close()
     wall = time.perf_counter() - t0
 
+    spun = not config.tumble.at_rest
     if args.json:
         out = []
         for r, path in results:
             d = r.to_dict(with_samples=args.per_sample)
             d["results_file"] = str(path)
+            if spun:
+                d["by_attitude"] = by_attitude(r, designs[labels.index(r.label)], config, model)
             d["machines"] = ResultsFile(path).machine_counts({r.key})
             out.append(d)
         print_json(out if args.reference else out[0])
         return 0
     print(results_table([r for r, _ in results]))
+    if spun:
+        print("\n" + attitude_text(results, designs, labels, config, model))
     errs = sum(r.failures_by_reason.get("worker error", 0) for r, _ in results)
     files = sorted({str(p) for _, p in results})
     reused = sum(r.reused for r, _ in results)
@@ -204,3 +209,28 @@ def results_table(results) -> str:
                          for i, (c, w) in enumerate(zip(cells, widths))).rstrip()
 
     return "\n".join([line(head), line(["-" * w for w in widths])] + [line(r) for r in rows])
+
+
+def by_attitude(result, design, config, model) -> list[dict]:
+    """A tumbling run's successes per bin of |a_z| at launch (the cosine between the
+    stage's long axis and the line of sight, ``studies.tumbling.long_axis_los``)."""
+    from ..studies.tumbling import ATTITUDE_BINS, attitude_counts
+
+    ok, n = attitude_counts(design, config, model, ((s.seed, s.success) for s in result.samples))
+    return [{"a_z_from": ATTITUDE_BINS[k], "a_z_to": ATTITUDE_BINS[k + 1], "samples": n[k],
+             "successes": ok[k]} for k in range(len(n))]
+
+
+def attitude_text(results, designs, labels, config, model) -> str:
+    """Markdown: each design's successes per bin of |a_z| at launch."""
+    from ..studies.tumbling import attitude_heads
+
+    rows = []
+    for r, _path in results:
+        bins = by_attitude(r, designs[labels.index(r.label)], config, model)
+        rows.append(f"| {r.label} | " + " | ".join(f"{b['successes']}/{b['samples']}"
+                                                   for b in bins) + " |")
+    heads = attitude_heads()
+    return ("successes by the stage's attitude at launch (a_z: |cos| of the angle between "
+            "its long axis and the line of sight; 1: end-on)\n\n| design | " + " | ".join(heads)
+            + " |\n|---|" + "---|" * len(heads) + "\n" + "\n".join(rows))

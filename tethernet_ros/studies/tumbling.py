@@ -174,14 +174,32 @@ def attitude_bin(a_z: float) -> int:
     return len(ATTITUDE_BINS) - 2
 
 
+def attitude_counts(design, config, noise, outcomes) -> tuple[list[int], list[int]]:
+    """(successes, samples) per ATTITUDE_BINS bin of |a_z| at launch, over ``outcomes``:
+    (noise seed, success) pairs of episodes of ``design`` under ``config`` and ``noise``."""
+    n = [0] * (len(ATTITUDE_BINS) - 1)
+    ok = [0] * (len(ATTITUDE_BINS) - 1)
+    for seed, success in outcomes:
+        k = attitude_bin(long_axis_los(design, config, noise, seed))
+        n[k] += 1
+        ok[k] += int(bool(success))
+    return ok, n
+
+
+def attitude_heads() -> list[str]:
+    """Column heads of the ATTITUDE_BINS bins."""
+    e = ATTITUDE_BINS
+    return [f"{e[k]:g} <= a_z < {e[k + 1]:g}" if k < len(e) - 2 else f"a_z >= {e[k]:g}"
+            for k in range(len(e) - 1)]
+
+
 def attitude_table(designs: list[str], cells: list, records: dict, design_of: dict) -> str:
     """Markdown: for each tumbling cell (axis, rate) whose samples do not all lie across the
     line of sight, each design's successes per bin of |a_z| at launch, threshold / adaptive
     (``records``: (cell label, design) -> CellRecord with verdicts in sample order)."""
     by_label = {c.label: c for c in cells}
     edges = ATTITUDE_BINS
-    heads = [f"{edges[k]:g} <= a_z < {edges[k + 1]:g}" if k < len(edges) - 2
-             else f"a_z >= {edges[k]:g}" for k in range(len(edges) - 1)]
+    heads = attitude_heads()
     rows = []
     for axis in TUMBLE_AXES:
         for rate in TUMBLE_RATES:
@@ -194,14 +212,8 @@ def attitude_table(designs: list[str], cells: list, records: dict, design_of: di
                     rec = records.get((_label(axis, rate, policy), d))
                     if rec is None or not rec.verdicts:
                         continue
-                    n = [0] * (len(edges) - 1)
-                    ok = [0] * (len(edges) - 1)
-                    for v in rec.verdicts:
-                        k = attitude_bin(long_axis_los(design_of[d], cell.config, cell.noise,
-                                                       v.seed))
-                        n[k] += 1
-                        ok[k] += int(v.success)
-                    counts[policy] = (ok, n)
+                    counts[policy] = attitude_counts(design_of[d], cell.config, cell.noise,
+                                                     ((v.seed, v.success) for v in rec.verdicts))
                 if not counts or all(sum(n[1:]) == 0 for _ok, n in counts.values()):
                     continue
                 parts = []
