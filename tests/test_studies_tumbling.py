@@ -83,3 +83,23 @@ def test_attitude_table_splits_each_cell_by_bin():
                       tuple(Verdict(s, True) for s in seeds))
     assert attitude_table(["baseline"], cells, {("long 2 threshold", "baseline"): roll},
                           {"baseline": design}) == ""
+
+
+def test_error_bars_of_a_cell_at_every_or_no_success(tmp_path):
+    """At 0 or n successes the Wilson bound may sit on the wrong side of p by round-off
+    (10 of 10: hi = 1 - 1e-16); the bars stay non-negative and both figures draw."""
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.metrics import wilson_interval
+    from tethernet_ros.studies.cells import Cell
+    from tethernet_ros.studies.report import error_bars, plot_study
+
+    stats = {}
+    for label, k in (("rest threshold", 10), ("flat 2 threshold", 0)):
+        lo, hi = wilson_interval(k, 10)
+        stats[(label, "mass-min")] = CellStats(label, "mass-min", 10, k, k / 10, lo, hi, 30.0, {})
+    below, above = error_bars([1.0, 0.0], *zip(wilson_interval(10, 10), wilson_interval(0, 10)))
+    assert (below >= 0).all() and (above >= 0).all() and above[1] > 25 and below[0] > 25
+    cells = [Cell("rest threshold", "a", SimConfig()), Cell("flat 2 threshold", "b", SimConfig())]
+    plot_study(["mass-min"], cells, stats, tmp_path / "s.png")
+    plot_tumbling(["mass-min"], stats, tmp_path / "t.png", "edges")
+    assert (tmp_path / "s.png").stat().st_size > 1000 and (tmp_path / "t.png").stat().st_size > 1000

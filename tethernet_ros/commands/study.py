@@ -91,9 +91,7 @@ def run(args) -> int:
     check_backend_arguments(args)
     design_of = {}
     for d in designs:
-        if d in REFERENCE_DESIGNS:
-            design_of[d] = REFERENCE_DESIGNS[d]
-        elif d.endswith((".yaml", ".yml")) and Path(d).is_file():
+        if d in REFERENCE_DESIGNS or (d.endswith((".yaml", ".yml")) and Path(d).is_file()):
             # a design file's own scenario (its tumble:) gives way to each cell's
             design_of[d], tumble = read_design_file(d)
             if tumble is not None:

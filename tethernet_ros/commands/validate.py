@@ -153,20 +153,21 @@ def run(args) -> int:
     wall = time.perf_counter() - t0
 
     spun = not config.tumble.at_rest
+    design_by_label = dict(zip(labels, designs))
     if args.json:
         out = []
         for r, path in results:
             d = r.to_dict(with_samples=args.per_sample)
             d["results_file"] = str(path)
             if spun:
-                d["by_attitude"] = by_attitude(r, designs[labels.index(r.label)], config, model)
+                d["by_attitude"] = by_attitude(r, design_by_label[r.label], config, model)
             d["machines"] = ResultsFile(path).machine_counts({r.key})
             out.append(d)
         print_json(out if args.reference else out[0])
         return 0
     print(results_table([r for r, _ in results]))
     if spun:
-        print("\n" + attitude_text(results, designs, labels, config, model))
+        print("\n" + attitude_text(results, design_by_label, config, model))
     errs = sum(r.failures_by_reason.get("worker error", 0) for r, _ in results)
     files = sorted({str(p) for _, p in results})
     reused = sum(r.reused for r, _ in results)
@@ -221,13 +222,13 @@ def by_attitude(result, design, config, model) -> list[dict]:
              "successes": ok[k]} for k in range(len(n))]
 
 
-def attitude_text(results, designs, labels, config, model) -> str:
+def attitude_text(results, design_by_label: dict, config, model) -> str:
     """Markdown: each design's successes per bin of |a_z| at launch."""
     from ..studies.tumbling import attitude_heads
 
     rows = []
     for r, _path in results:
-        bins = by_attitude(r, designs[labels.index(r.label)], config, model)
+        bins = by_attitude(r, design_by_label[r.label], config, model)
         rows.append(f"| {r.label} | " + " | ".join(f"{b['successes']}/{b['samples']}"
                                                    for b in bins) + " |")
     heads = attitude_heads()

@@ -62,6 +62,16 @@ def comparison_table(designs: list[str], paired: dict, label_b: str) -> str:
     return "\n".join(lines)
 
 
+def error_bars(p, lo, hi):
+    """(below, above) error bars in percent of P*_s with its interval [lo, hi], arrays or
+    numbers: never negative (``core.metrics.wilson_interval`` may leave a bound on the
+    wrong side of p by round-off at 0 or n successes, which matplotlib refuses)."""
+    import numpy as np
+
+    p, lo, hi = (np.asarray(v, dtype=float) for v in (p, lo, hi))
+    return np.maximum(0.0, 100 * (p - lo)), np.maximum(0.0, 100 * (hi - p))
+
+
 def plot_study(designs: list[str], cells: list, stats: dict, path: str | Path, title: str = "") -> Path:
     """Two panels: P*_s with Wilson 95 % error bars and mean T, one bar per cell per
     design; the source's published values as dashed lines."""
@@ -84,7 +94,7 @@ def plot_study(designs: list[str], cells: list, stats: dict, path: str | Path, t
         hi = np.array([c.hi if c else np.nan for c in got])
         t = np.array([c.mean_t if c else np.nan for c in got])
         xs = x - 0.4 + width * (k + 0.5)
-        axes[0].bar(xs, 100 * p, width, yerr=[100 * (p - lo), 100 * (hi - p)], capsize=2,
+        axes[0].bar(xs, 100 * p, width, yerr=error_bars(p, lo, hi), capsize=2,
                     color=cmap(k % 20), label=cell.label)
         axes[1].bar(xs, t, width, color=cmap(k % 20))
     for j, d in enumerate(designs):

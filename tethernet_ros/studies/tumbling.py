@@ -9,10 +9,12 @@ out of the tables and the figure.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from pathlib import Path
 
 from .cells import TUMBLE_AXES, TUMBLE_RATES
+from .report import error_bars
 
 POLICIES = ("threshold", "adaptive")
 #: the reliability below which a design is said to fail under a tumble
@@ -113,22 +115,17 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
         rates = measured_rates(stats, axis)
         for k, d in enumerate(designs):
             for policy, style in zip(POLICIES, ("-", "--")):
-                xs, ys, lo, hi, ts = [], [], [], [], []
-                for r in rates:
-                    c = _cell(stats, axis, r, policy, d)
-                    if c is None or not c.n:
-                        continue
-                    xs.append(r)
-                    ys.append(100 * c.p)
-                    # (clamped: a Wilson bound may sit on p within round-off)
-                    lo.append(max(0.0, 100 * (c.p - c.lo)))
-                    hi.append(max(0.0, 100 * (c.hi - c.p)))
-                    ts.append(c.mean_t)
-                if xs:
+                got = [(r, c) for r in rates
+                       if (c := _cell(stats, axis, r, policy, d)) is not None and c.n]
+                if got:
+                    xs = [r for r, _c in got]
+                    p, lo, hi = ([getattr(c, f) for _r, c in got] for f in ("p", "lo", "hi"))
                     colour = colours[k % len(colours)]
-                    top.errorbar(xs, ys, yerr=[lo, hi], fmt=style, marker="o", ms=3, capsize=2,
-                                 color=colour, label=f"{Path(d).stem} {policy}")
-                    bottom.plot(xs, ts, style, marker="o", ms=3, color=colour)
+                    top.errorbar(xs, [100 * v for v in p], yerr=error_bars(p, lo, hi), fmt=style,
+                                 marker="o", ms=3, capsize=2, color=colour,
+                                 label=f"{Path(d).stem} {policy}")
+                    bottom.plot(xs, [c.mean_t for _r, c in got], style, marker="o", ms=3,
+                                color=colour)
         top.axhline(100 * FLOOR, color="grey", lw=0.8, ls=":")
         top.axhline(98.0, color="grey", lw=0.8, ls="-.")
         top.set_title(axis)
@@ -168,21 +165,22 @@ def long_axis_los(design, config, noise, seed: int) -> float:
 
 def attitude_bin(a_z: float) -> int:
     """Index of the ATTITUDE_BINS bin that holds a_z (the last one includes 1)."""
-    for k in range(len(ATTITUDE_BINS) - 2):
-        if a_z < ATTITUDE_BINS[k + 1]:
-            return k
-    return len(ATTITUDE_BINS) - 2
+    return min(bisect.bisect_right(ATTITUDE_BINS, a_z) - 1, len(ATTITUDE_BINS) - 2)
 
 
-def attitude_counts(design, config, noise, outcomes) -> tuple[list[int], list[int]]:
+def attitude_counts(design, config, noise, outcomes, bin_of=None) -> tuple[list[int], list[int]]:
     """(successes, samples) per ATTITUDE_BINS bin of |a_z| at launch, over ``outcomes``:
-    (noise seed, success) pairs of episodes of ``design`` under ``config`` and ``noise``."""
+    (noise seed, success) pairs of episodes of ``design`` under ``config`` and ``noise``.
+    ``bin_of``: a dict seed -> bin shared by calls over the same episodes' attitudes (the
+    policies of one cell), filled as seeds are met."""
+    bin_of = {} if bin_of is None else bin_of
     n = [0] * (len(ATTITUDE_BINS) - 1)
     ok = [0] * (len(ATTITUDE_BINS) - 1)
     for seed, success in outcomes:
-        k = attitude_bin(long_axis_los(design, config, noise, seed))
-        n[k] += 1
-        ok[k] += int(bool(success))
+        if seed not in bin_of:
+            bin_of[seed] = attitude_bin(long_axis_los(design, config, noise, seed))
+        n[bin_of[seed]] += 1
+        ok[bin_of[seed]] += int(bool(success))
     return ok, n
 
 
@@ -208,12 +206,14 @@ def attitude_table(designs: list[str], cells: list, records: dict, design_of: di
                 continue
             for d in designs:
                 counts = {}
+                bin_of = {}          # the policies share the cell's attitudes
                 for policy in POLICIES:
                     rec = records.get((_label(axis, rate, policy), d))
                     if rec is None or not rec.verdicts:
                         continue
                     counts[policy] = attitude_counts(design_of[d], cell.config, cell.noise,
-                                                     ((v.seed, v.success) for v in rec.verdicts))
+                                                     ((v.seed, v.success) for v in rec.verdicts),
+                                                     bin_of)
                 if not counts or all(sum(n[1:]) == 0 for _ok, n in counts.values()):
                     continue
                 parts = []
