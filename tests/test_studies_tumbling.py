@@ -1,6 +1,8 @@
 """The tumbling study's report (tethernet_ros/studies/tumbling.py) on a study run on some
 cells only: the tables and the 90 % rate use the measured rates and axes, a missing cell
 of one design shows as '-', and the figure is drawn."""
+import math
+
 from tethernet_ros.studies.paired import CellStats
 from tethernet_ros.studies.tumbling import (falls_below, measured_rates, plot_tumbling,
                                             tumbling_table)
@@ -103,3 +105,35 @@ def test_error_bars_of_a_cell_at_every_or_no_success(tmp_path):
     plot_study(["mass-min"], cells, stats, tmp_path / "s.png")
     plot_tumbling(["mass-min"], stats, tmp_path / "t.png", "edges")
     assert (tmp_path / "s.png").stat().st_size > 1000 and (tmp_path / "t.png").stat().st_size > 1000
+
+
+def test_policy_table_pairs_the_policies_sample_by_sample():
+    """The adaptive cell against the threshold cell of the same (axis, rate, design): the
+    flips are counted seed by seed, McNemar's p is the exact binomial one, and a cell with
+    one policy only (a study still running) is left out."""
+    from scipy.stats import binomtest
+
+    from tethernet_ros.montecarlo.seeds import sample_seed
+    from tethernet_ros.studies.summary import CellRecord, Verdict
+    from tethernet_ros.studies.tumbling import policy_pairs, policy_table
+
+    seeds = [sample_seed(0, i) for i in range(20)]
+    # threshold: samples 0-9 succeed; adaptive: samples 3-17 succeed
+    th_ok = [i < 10 for i in range(20)]
+    ad_ok = [3 <= i < 18 for i in range(20)]
+
+    def rec(label, ok, t):
+        s = CellStats(label, "a", 20, sum(ok), sum(ok) / 20, 0.0, 1.0, t, {})
+        return CellRecord(s, "k", 0, tuple(Verdict(x, b) for x, b in zip(seeds, ok)))
+
+    records = {("flat 2 threshold", "a"): rec("flat 2 threshold", th_ok, 40.0),
+               ("flat 2 adaptive", "a"): rec("flat 2 adaptive", ad_ok, 27.5),
+               ("flat 4 threshold", "a"): rec("flat 4 threshold", th_ok, 40.0)}
+    pairs = policy_pairs(["a"], records)
+    assert list(pairs) == [("flat", 2.0, "a")]
+    p = pairs[("flat", 2.0, "a")]
+    assert (p.b_only, p.a_only) == (8, 3)          # samples 10-17 / samples 0-2
+    assert math.isclose(p.mcnemar_p, binomtest(3, 11, 0.5).pvalue)
+    text = policy_table(pairs)
+    assert f"| flat | 2 | a | +25.0 | 8 / 3 | {p.mcnemar_p:.2g} | -12.50 |" in text
+    assert policy_table({}) == ""

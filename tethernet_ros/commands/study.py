@@ -216,11 +216,13 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     name = args.name or args.study
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
     if args.study == "tumbling":
-        from ..studies.tumbling import attitude_table, plot_tumbling, tumbling_table
+        from ..studies.tumbling import (attitude_table, plot_tumbling, policy_pairs,
+                                        policy_table, tumbling_table)
         table = tumbling_table(designs, stats)
-        by_attitude = attitude_table(designs, cells, records, design_of)
-        if by_attitude:
-            table += "\n" + by_attitude
+        policies = policy_pairs(designs, records)
+        for part in (policy_table(policies), attitude_table(designs, cells, records, design_of)):
+            if part:
+                table += "\n" + part
     elif len(cells) == 2:
         table = comparison_table(designs, paired, cells[1].label)
     else:
@@ -246,6 +248,11 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
                            "a_only": p.a_only, "b_only": p.b_only, "mcnemar_p": p.mcnemar_p,
                            "p_diff": p.p_diff, "t_rel_diff": p.t_rel_diff,
                            "within_half_width": p.within_half_width} for p in paired.values()]}
+    if args.study == "tumbling":
+        summary["adaptive_vs_threshold"] = [
+            {"axis": axis, "rate_deg_s": rate, "design": d, "p_diff": p.p_diff,
+             "adaptive_only": p.b_only, "threshold_only": p.a_only, "mcnemar_p": p.mcnemar_p,
+             "t_diff": p.b.mean_t - p.a.mean_t} for (axis, rate, d), p in policies.items()]
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     if args.study == "tumbling":
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)
