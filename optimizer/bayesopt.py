@@ -46,6 +46,7 @@ from skopt.space import Space
 
 from .acquisition import (expected_improvement_plus, log_acquisition, log_probability_feasible,
                           maximise_acquisition)
+from .candidates import DUPLICATE_TOL, away_from_evaluated, candidate_centres, candidate_points
 from .gp import GPModel
 from .jsonio import json_clean
 from .observation import Observation
@@ -53,18 +54,6 @@ from .observation import Observation
 __all__ = ["ConstrainedBayesOpt", "DUPLICATE_TOL"]
 
 _STATE_KIND = "ConstrainedBayesOpt"
-
-
-#: two designs closer than this in every normalised coordinate count as the same design
-DUPLICATE_TOL = 1e-3
-
-
-def _near_any(points: np.ndarray, others: np.ndarray, tol: float) -> np.ndarray:
-    """For each row of ``points`` (unit cube), whether some row of ``others`` lies within
-    ``tol`` of it in every coordinate."""
-    if len(others) == 0:
-        return np.zeros(len(points), dtype=bool)
-    return (np.abs(points[:, None, :] - others[None, :, :]).max(axis=2) < tol).any(axis=1)
 
 
 class ConstrainedBayesOpt:
@@ -232,19 +221,8 @@ class ConstrainedBayesOpt:
         if feas.any():
             mu_obs, _ = obj.predict(U[feas])
             incumbent = float(np.min(mu_obs))
-        # candidates: uniform + local perturbations of the best observed points
-        rng = self._rng
-        cand = rng.random((self.n_candidates, self.dim))
-        if incumbent is not None:
-            fi = np.flatnonzero(feas)
-            centres = U[fi[np.argsort([H[i].objective for i in fi], kind="stable")[:5]]]
-        else:
-            lp = log_probability_feasible(cons, self.constraints, U)
-            centres = U[np.argsort(-lp, kind="stable")[:5]]
-        n_loc = max(self.n_candidates // 4, 1)
-        scales = np.array([0.01, 0.05, 0.15])[np.arange(n_loc) % 3][:, None]
-        local = centres[np.arange(n_loc) % len(centres)] + scales * rng.standard_normal((n_loc, self.dim))
-        cand = np.vstack([cand, np.clip(local, 0.0, 1.0)])
+        centres = candidate_centres(U, [o.objective for o in H], feas, cons, self.constraints)
+        cand = candidate_points(self._rng, self.n_candidates, centres)
         cand = cand[self._cheap_ok(cand)]
         if len(cand) == 0:
             raise RuntimeError("no acquisition candidate satisfies cheap_constraint")
@@ -269,20 +247,11 @@ class ConstrainedBayesOpt:
             else:
                 u = maximise(obj)
             la = float(log_acquisition(obj, cons, self.constraints, incumbent, u[None, :])[0])
-        # Never ask for a design already evaluated: with common random numbers a repeat
-        # returns the same observation, so it teaches the models nothing (a flat
-        # feasibility model, e.g. every P*_s observed 0, otherwise sends the polish to
-        # the same corner again and again).  Take the best candidate away from them.
-        deduplicated = False
-        U_all = self.to_unit(np.array([o.x for o in self.history]))
-        if _near_any(u[None, :], U_all, DUPLICATE_TOL)[0]:
-            fresh = cand[~_near_any(cand, U_all, DUPLICATE_TOL)]
-            if len(fresh):
-                score = (log_probability_feasible(cons, self.constraints, fresh) if incumbent is None
-                         else log_acquisition(obj, cons, self.constraints, incumbent, fresh))
-                u = fresh[int(np.argmax(score))]
-                la = float(score.max())
-                deduplicated = True
+        # never a design already evaluated (candidates.away_from_evaluated says why)
+        u, la, deduplicated = away_from_evaluated(
+            u, la, cand, self.to_unit(np.array([o.x for o in self.history])),
+            (lambda P: log_probability_feasible(cons, self.constraints, P)) if incumbent is None
+            else (lambda P: log_acquisition(obj, cons, self.constraints, incumbent, P)))
         mu, sd = obj.predict(u[None, :])
         self.last_ask_info = {
             "deduplicated": deduplicated,

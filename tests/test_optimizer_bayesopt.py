@@ -351,3 +351,31 @@ def test_never_asks_for_an_evaluated_design_again():
         assert all(np.abs(x - y).max() > 1e-4 for y in seen)
         seen.append(x)
         opt.tell(x, float(x.sum()), {"p": 0.0}, {"p": 0.01})
+
+
+def test_candidates_draw_uniform_then_local_points_and_keep_away_from_evaluated():
+    """optimizer/candidates.py: n uniform points, then n // 4 perturbations of the centres
+    at the cycled scales, in that order of draws and inside the cube; a chosen point that
+    was evaluated gives way to the best-scoring candidate that was not."""
+    from optimizer.candidates import (LOCAL_SCALES, away_from_evaluated, candidate_centres,
+                                      candidate_points)
+
+    centres = np.array([[0.5, 0.5], [0.999, 0.001]])
+    cand = candidate_points(np.random.default_rng(1), 40, centres)
+    rng = np.random.default_rng(1)
+    uniform, noise = rng.random((40, 2)), rng.standard_normal((10, 2))
+    assert cand.shape == (50, 2) and np.array_equal(cand[:40], uniform)
+    scales = np.array([LOCAL_SCALES[k % 3] for k in range(10)])[:, None]
+    want = np.clip(centres[np.arange(10) % 2] + scales * noise, 0.0, 1.0)
+    assert np.array_equal(cand[40:], want) and cand.min() >= 0.0 and cand.max() <= 1.0
+
+    U = np.array([[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]])
+    best = candidate_centres(U, [3.0, 1.0, 2.0], np.array([True, True, False]), {}, {})
+    assert np.array_equal(best, U[[1, 0]])          # feasible ones, lowest objective first
+
+    pts = np.array([[0.1, 0.1], [0.7, 0.7], [0.9, 0.2]])
+    score_of = lambda P: -P.sum(axis=1)            # noqa: E731
+    u, s, moved = away_from_evaluated(pts[0], 9.0, pts, U, score_of)
+    assert moved and np.array_equal(u, pts[2]) and s == -1.1
+    u, s, moved = away_from_evaluated(pts[1], 9.0, pts, U, score_of)
+    assert not moved and np.array_equal(u, pts[1]) and s == 9.0
