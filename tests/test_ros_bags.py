@@ -95,6 +95,27 @@ def test_aborted_bag_is_marked_and_readable(tmp_path):
     assert any("the simulation stopped" in p for p in contents.problems)
 
 
+def test_writer_as_a_context_manager_closes_or_aborts(tmp_path):
+    """A block that ends closes the bag; one that raises aborts it, the marker naming the
+    exception, and the messages written before it stay readable."""
+    from rosbags.highlevel import AnyReader
+
+    with BagWriter(tmp_path / "ok") as w:
+        w.add_topic("/c", "tethernet_msgs/msg/ClosingCommand")
+        w.write("/c", serialize_message(ClosingCommand(closing_displacement=1.5)), 1)
+    assert (tmp_path / "ok" / "metadata.yaml").is_file() and not (tmp_path / "ok.partial").exists()
+    with pytest.raises(RuntimeError, match="winch"):
+        with BagWriter(tmp_path / "bad") as w:
+            w.add_topic("/c", "tethernet_msgs/msg/ClosingCommand")
+            w.write("/c", serialize_message(ClosingCommand(closing_displacement=2.5)), 1)
+            raise RuntimeError("winch stalled")
+    partial = tmp_path / "bad.partial"
+    assert (partial / MARKER).read_text() == "incomplete: RuntimeError: winch stalled\n"
+    assert not (tmp_path / "bad").exists() and not (partial / "metadata.yaml").exists()
+    with AnyReader([tmp_path / "ok"]) as r:
+        assert len(list(r.messages())) == 1
+
+
 def test_writer_refuses_clobbering_and_bad_names(tmp_path):
     _write(tmp_path / "a").close()
     with pytest.raises(BagError, match="already exists"):

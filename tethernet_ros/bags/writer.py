@@ -76,6 +76,8 @@ class BagWriter:
 
     ``add_topic(topic, msgtype, qos)`` before writing a topic; ``write(topic, data,
     log_time_ns)``; then ``close()`` (complete bag) or ``abort(reason)`` (incomplete).
+    As a context manager (``with BagWriter(path) as bag:``) it closes the bag when the
+    block ends and aborts it, naming the exception, when the block raises.
     compression: ``zstd`` (MCAP chunks) or ``none``; chunk_bytes: messages per MCAP chunk
     (bytes before compression), the unit that a damaged file is read in.
     """
@@ -135,6 +137,15 @@ class BagWriter:
     @property
     def counts(self) -> dict[str, int]:
         return dict(self._counts)
+
+    def __enter__(self) -> BagWriter:
+        return self
+
+    def __exit__(self, exc_type, exc, _tb) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort(f"{exc_type.__name__}: {exc}")
 
     def close(self) -> Path:
         """Finish a complete bag: metadata.yaml written, marker removed, folder renamed."""
