@@ -34,7 +34,12 @@ def test_a_study_takes_its_finished_cells_from_the_summary(tmp_path):
     assert [(s["label"], s["n"], len(s["verdicts"])) for s in summary["stats"]] == [
         ("rest threshold", 3, 3), ("flat 8 threshold", 3, 3)]
     assert all(s["seed"] == 0 and len(s["key"]) == 20 for s in summary["stats"])
-    assert len(sample_lines(tmp_path / "a.jsonl")) == 6
+    lines = sample_lines(tmp_path / "a.jsonl")
+    assert len(lines) == 6
+    # each sample's closing time, as the results file has it (null: never closed)
+    closing = {(r["key"], r["seed"]): r["closing_time"] for r in map(json.loads, lines)}
+    assert [s["closing_times"] for s in summary["stats"]] == [
+        [closing[(s["key"], i)] for i in range(3)] for s in summary["stats"]]
     report = tmp_path / "docs" / "tumbling.md"
     assert KEEP_MARK in report.read_text()
     report.write_text(report.read_text() + "\nOur findings, by hand.\n")
@@ -111,6 +116,27 @@ def test_unusable_summaries_give_no_cells(tmp_path):
     assert cell.complete_prefix
     with pytest.raises(ValueError, match="verdicts"):
         CellRecord.from_json({**rec, "verdicts": "1x"}, "a", "b")
+
+
+def test_closing_times_are_kept_and_taken_from_a_results_file():
+    """A summary written before closing times were kept takes them from a results file
+    that holds every sample of the cell under its key, and not from one that lacks one."""
+    import math
+    from types import SimpleNamespace
+
+    cell = CellRecord.from_json(REC, "flat 1 threshold", "mass-min")
+    assert cell.closing_times is None and "closing_times" not in cell.to_json()
+    one = {(REC["key"], 0): SimpleNamespace(closing_time=12.5)}
+    assert cell.with_closing_times_from(one) is cell                   # seed 1 missing
+    both = {**one, (REC["key"], 1): SimpleNamespace(closing_time=None)}
+    filled = cell.with_closing_times_from(both)
+    assert filled.closing_times[0] == 12.5 and math.isnan(filled.closing_times[1])
+    assert filled.to_json()["closing_times"] == [12.5, None]
+    again = CellRecord.from_json(filled.to_json(), "flat 1 threshold", "mass-min")
+    assert again.closing_times[0] == 12.5 and math.isnan(again.closing_times[1])
+    assert filled.with_closing_times_from({}) is filled                # kept as it is
+    with pytest.raises(ValueError, match="closing_times"):
+        CellRecord.from_json({**REC, "closing_times": [1.0]}, "a", "b")
 
 
 def test_plan_of_what_is_left():

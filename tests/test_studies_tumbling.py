@@ -137,3 +137,63 @@ def test_policy_table_pairs_the_policies_sample_by_sample():
     text = policy_table(pairs)
     assert f"| flat | 2 | a | +25.0 | 8 / 3 | {p.mcnemar_p:.2g} | -12.50 |" in text
     assert policy_table({}) == ""
+
+
+def test_attitude_at_a_later_time_follows_the_kernel_untouched():
+    """long_axis_los at t s is where the kernel turns the stage's long axis when the net
+    is out of reach (d_L = 1000 m): a noisy flat spin (axis tilted off the principal axis,
+    so the top precesses) at 8 deg/s, after 3 s."""
+    from dataclasses import replace
+
+    from tethernet_ros.core import kernel as kn
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.episode import CaptureSimulation
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.core.scenario import scenario_for
+    from tethernet_ros.core.tumble import TumbleConfig
+    from tethernet_ros.studies.tumbling import long_axis_los
+
+    design = replace(REFERENCE_DESIGNS["time-min"], d_L=1000.0)
+    cfg = SimConfig(tumble=TumbleConfig(rate_deg_s=8.0, axis="flat"))
+    noise = NoiseModel()
+    seed = 5
+    sample = noise.sample(seed)
+    assert sample.spin_axis_tilt != 0.0
+    sim = CaptureSimulation(scenario_for(design, sample, cfg))
+    a0 = long_axis_los(design, cfg, noise, seed)
+    assert math.isclose(abs(kn.quat_to_matrix(sim.s.target_body.quat)[2, 0]), a0, abs_tol=1e-12)
+    sim.advance(3000)
+    t = sim.time
+    got = abs(kn.quat_to_matrix(sim.s.target_body.quat)[2, 0])
+    assert math.isclose(long_axis_los(design, cfg, noise, seed, t), got, abs_tol=1e-7)
+    assert abs(got - a0) > 0.05           # the axis moved: 24 deg turned in 3 s
+
+
+def test_closing_attitude_table_counts_the_samples_that_never_closed():
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.montecarlo.seeds import sample_seed
+    from tethernet_ros.studies.cells import tumbling_cells
+    from tethernet_ros.studies.summary import CellRecord, Verdict
+    from tethernet_ros.studies.tumbling import attitude_bin, attitude_table, long_axis_los
+
+    design = REFERENCE_DESIGNS["mass-min"]
+    cells = tumbling_cells(SimConfig())
+    cell = next(c for c in cells if c.label == "flat 4 threshold")
+    seeds = [sample_seed(0, i) for i in range(30)]
+    times = tuple(math.nan if i % 5 == 0 else 20.0 + 0.1 * i for i in range(30))
+    bins = [None if not math.isfinite(t) else
+            attitude_bin(long_axis_los(design, cell.config, cell.noise, s, t))
+            for s, t in zip(seeds, times)]
+    verdicts = tuple(Verdict(s, b == 0) for s, b in zip(seeds, bins))
+    k = sum(b == 0 for b in bins)
+    rec = CellRecord(_stats("flat 4 threshold", "mass-min", k, 30), "k", 0, verdicts, 0.0, times)
+    no_times = CellRecord(rec.stats, "k", 0, verdicts)
+    text = attitude_table(["mass-min"], cells, {("flat 4 threshold", "mass-min"): rec},
+                          {"mass-min": design}, at="closing")
+    n = [bins.count(j) for j in range(3)]
+    assert f"| flat | 4 | mass-min | {n[0]}/{n[0]} / - | 0/{n[1]} / - | 0/{n[2]} / - | 0/6 / - |" \
+        in text and "closing never started" in text
+    assert attitude_table(["mass-min"], cells, {("flat 4 threshold", "mass-min"): no_times},
+                          {"mass-min": design}, at="closing") == ""

@@ -129,6 +129,7 @@ def run(args) -> int:
         if records:
             print(f"{summary_path}: {len(records)} of {len(specs)} cells taken as recorded "
                   "(same run key, seed and samples); the others are simulated", file=sys.stderr)
+            records = _closing_times_from_file(records, results)
         if args.plan:
             print(_plan(args, cells, designs, keys, records, results))
             return 0
@@ -155,6 +156,18 @@ def run(args) -> int:
             backend.close()
     print(_write_report(args, base, cells, designs, records, design_of))
     return 0
+
+
+def _closing_times_from_file(records: dict, results: Path) -> dict:
+    """Recorded cells that lack their samples' closing times (a summary written before it
+    kept them) take them from the results file when it holds all of their samples."""
+    if all(r.closing_times is not None for r in records.values()) or not results.exists():
+        return records
+    from ..montecarlo.results_file import ResultsFile
+
+    # records() only reads: load() would cut a partial last line a running study is writing
+    known = {(r.key, r.seed): r for _rec, r in ResultsFile(results).records()}
+    return {k: r.with_closing_times_from(known) for k, r in records.items()}
 
 
 def _plan(args, cells, designs, keys: dict, records, results: Path) -> str:
@@ -220,7 +233,8 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
                                         policy_table, tumbling_table)
         table = tumbling_table(designs, stats)
         policies = policy_pairs(designs, records)
-        for part in (policy_table(policies), attitude_table(designs, cells, records, design_of)):
+        for part in (policy_table(policies), attitude_table(designs, cells, records, design_of),
+                     attitude_table(designs, cells, records, design_of, at="closing")):
             if part:
                 table += "\n" + part
     elif len(cells) == 2:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..core.metrics import wilson_interval
@@ -44,14 +44,17 @@ class Verdict:
 @dataclass(frozen=True)
 class CellRecord:
     """One cell of one design as the summary keeps it: statistics, run key, base seed,
-    verdicts in sample order and the CPU seconds its episodes took (their sum, as the
-    results file recorded them; for planning what remains, :func:`plan_text`)."""
+    verdicts in sample order, the CPU seconds its episodes took (their sum, as the
+    results file recorded them; for planning what remains, :func:`plan_text`) and each
+    sample's closing time (s of simulated time, NaN where closing never started; None
+    when not known: a summary written before they were kept, and no results file)."""
 
     stats: CellStats
     key: str
     base_seed: int
     verdicts: tuple[Verdict, ...]
     cpu_time: float = 0.0
+    closing_times: tuple[float, ...] | None = None
 
     @classmethod
     def from_samples(cls, label: str, design: str, key: str, base_seed: int,
@@ -59,7 +62,19 @@ class CellRecord:
         """From the cell's samples (``SampleResult``, index order)."""
         cpu = sum(float(s.cpu_time) for s in samples if math.isfinite(float(s.cpu_time)))
         return cls(CellStats.from_samples(label, design, samples), key, base_seed,
-                   tuple(Verdict(int(s.seed), bool(s.success)) for s in samples), cpu)
+                   tuple(Verdict(int(s.seed), bool(s.success)) for s in samples), cpu,
+                   _closing_times(samples))
+
+    def with_closing_times_from(self, results: dict) -> CellRecord:
+        """This record with its samples' closing times taken from a results file's records
+        (``ResultsFile.load()``: (key, seed) -> SampleResult) when it has none and the file
+        holds every one of its samples under its key; else this record."""
+        if self.closing_times is not None:
+            return self
+        got = [results.get((self.key, v.seed)) for v in self.verdicts]
+        if not got or any(r is None for r in got):
+            return self
+        return replace(self, closing_times=_closing_times(got))
 
     @property
     def complete_prefix(self) -> bool:
@@ -74,6 +89,9 @@ class CellRecord:
                "cpu_time": self.cpu_time}
         if self.complete_prefix:
             out["verdicts"] = "".join("1" if v.success else "0" for v in self.verdicts)
+            if self.closing_times is not None:
+                out["closing_times"] = [t if math.isfinite(t) else None
+                                        for t in self.closing_times]
         return out
 
     @classmethod
@@ -95,7 +113,23 @@ class CellRecord:
         lo, hi = wilson_interval(k, n)            # from the verdicts, not from the file
         stats = CellStats(label, design, n, k, k / n if n else math.nan, lo, hi,
                           math.nan if mean_t is None else float(mean_t), dict(failures))
-        return cls(stats, str(rec["key"]), base, verdicts, float(rec.get("cpu_time", 0.0)))
+        times = rec.get("closing_times")
+        if times is not None:
+            if not isinstance(times, list) or len(times) != n:
+                raise ValueError(f"cell {rec.get('label')!r}: closing_times must be a list of "
+                                 f"{n} times (s) or nulls")
+            times = tuple(math.nan if t is None else float(t) for t in times)
+        return cls(stats, str(rec["key"]), base, verdicts, float(rec.get("cpu_time", 0.0)),
+                   times)
+
+
+def _closing_times(samples) -> tuple[float, ...]:
+    """Each sample's closing time (s), NaN where closing never started."""
+    out = []
+    for s in samples:
+        t = s.closing_time
+        out.append(math.nan if t is None or not math.isfinite(float(t)) else float(t))
+    return tuple(out)
 
 
 def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str, dict]:

@@ -151,18 +151,65 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
 ATTITUDE_BINS = (0.0, 0.5, 0.9, 1.0)
 
 
-def long_axis_los(design, config, noise, seed: int) -> float:
-    """|a_z| at launch of the sample drawing ``seed``: the cosine between the stage's long
-    axis and the line of sight (z), from the orientation noise and the tumble's phase and
-    axis as the episode sets them (``core.scenario.world_for``, ``initial_attitude``)."""
+def long_axis_los(design, config, noise, seed: int, t: float = 0.0) -> float:
+    """|a_z| of the sample drawing ``seed`` at ``t`` s of simulated time: the cosine
+    between the stage's long axis and the line of sight (z).  At launch (t = 0) from the
+    orientation noise and the tumble's phase and axis as the episode sets them
+    (``core.scenario.world_for``, ``initial_attitude``); later, as the stage turns free
+    of torque: a symmetric top's long axis precesses about its fixed angular momentum L
+    at |L| / I_t (Landau and Lifshitz, Mechanics, section 33; the kernel keeps to this
+    closed form, tests/test_core_tumble.py).  The net's touch is not counted, so at a
+    closing time it is the attitude the stage would have had untouched."""
     import numpy as np
 
     from ..core.kernel import quat_to_matrix
     from ..core.scenario import initial_attitude, world_for
 
-    world = world_for(design, noise.sample(seed), config.tumble)
-    q, _w, _l = initial_attitude(world, np.ones(3))
-    return abs(float(quat_to_matrix(q)[2, 0]))
+    world = world_for(design, _noise_sample(noise, seed), config.tumble)
+    inertia = _target_inertia(config.target)
+    q, _w, ang_mom = initial_attitude(world, inertia)
+    e = quat_to_matrix(q)[:, 0]
+    big_l = float(np.linalg.norm(ang_mom))
+    if t and big_l > 0.0:
+        lhat = ang_mom / big_l
+        a = big_l / inertia[1] * float(t)
+        e = (e * math.cos(a) + np.cross(lhat, e) * math.sin(a)
+             + lhat * float(np.dot(lhat, e)) * (1.0 - math.cos(a)))
+    return abs(float(e[2]))
+
+
+def _noise_sample(noise, seed: int):
+    """``noise.sample(seed)``, drawn once per process: every cell and design of a study
+    draws the same seeds (a draw takes about 6 ms, its normals being exact inverse-CDF
+    values, core.detmath).  Keyed by the noise model's repr (it holds a dict)."""
+    key = (repr(noise), int(seed))
+    got = _SAMPLES.get(key)
+    if got is None:
+        if len(_SAMPLES) >= 20_000:
+            _SAMPLES.clear()
+        got = _SAMPLES[key] = noise.sample(seed)
+    return got
+
+
+_SAMPLES: dict = {}
+
+
+def _target_inertia(target_config):
+    """The target's principal moments (kg m^2; core.target.Target), checked to be a
+    symmetric top (I_y = I_z), which :func:`long_axis_los`'s closed form needs."""
+    key = repr(target_config)
+    if key not in _INERTIA:
+        from ..core.target import Target
+
+        inertia = Target(target_config).inertia
+        if inertia[1] != inertia[2]:
+            raise ValueError(f"target inertia {inertia.tolist()}: not a symmetric top "
+                             "(I_y != I_z); the free-rotation closed form does not apply")
+        _INERTIA[key] = inertia
+    return _INERTIA[key]
+
+
+_INERTIA: dict = {}
 
 
 def attitude_bin(a_z: float) -> int:
@@ -186,6 +233,20 @@ def attitude_counts(design, config, noise, outcomes, bin_of=None) -> tuple[list[
     return ok, n
 
 
+def closing_attitude_counts(design, config, noise, outcomes) -> tuple[list[int], list[int]]:
+    """(successes, samples) per ATTITUDE_BINS bin of |a_z| at the closing time, untouched
+    by the net (:func:`long_axis_los`), then one more entry for the samples whose closing
+    never started; ``outcomes``: (noise seed, success, closing time (s) or NaN)."""
+    k = len(ATTITUDE_BINS) - 1
+    n, ok = [0] * (k + 1), [0] * (k + 1)
+    for seed, success, t in outcomes:
+        b = k if not math.isfinite(t) else attitude_bin(long_axis_los(design, config, noise,
+                                                                      seed, t))
+        n[b] += 1
+        ok[b] += int(bool(success))
+    return ok, n
+
+
 def attitude_heads() -> list[str]:
     """Column heads of the ATTITUDE_BINS bins."""
     e = ATTITUDE_BINS
@@ -193,13 +254,30 @@ def attitude_heads() -> list[str]:
             for k in range(len(e) - 1)]
 
 
-def attitude_table(designs: list[str], cells: list, records: dict, design_of: dict) -> str:
+#: what each attitude table splits by, and its caption
+_AT = {
+    "launch": ("Successes by the stage's attitude at launch, threshold / adaptive: a_z = |cos| "
+               "of the angle between its long axis and the line of sight (0: lying across it, "
+               "1: end-on), from each sample's orientation noise and tumble phase."),
+    "closing": ("Successes by the stage's attitude at closing, threshold / adaptive: a_z as "
+                "above, at the sample's closing time, the stage turned free of torque from "
+                "launch (the net's touch before closing not counted; the adaptive policy "
+                "chooses that time from the attitude it senses), and the samples whose "
+                "closing never started."),
+}
+
+
+def attitude_table(designs: list[str], cells: list, records: dict, design_of: dict,
+                   at: str = "launch") -> str:
     """Markdown: for each tumbling cell (axis, rate) whose samples do not all lie across the
-    line of sight, each design's successes per bin of |a_z| at launch, threshold / adaptive
-    (``records``: (cell label, design) -> CellRecord with verdicts in sample order)."""
+    line of sight, each design's successes per bin of |a_z| ``at`` launch or at closing,
+    threshold / adaptive (``records``: (cell label, design) -> CellRecord with verdicts in
+    sample order, and closing times for ``at="closing"``; a policy without them is '-')."""
+    if at not in _AT:
+        raise ValueError(f"at={at!r}: must be one of {sorted(_AT)}")
     by_label = {c.label: c for c in cells}
     edges = ATTITUDE_BINS
-    heads = attitude_heads()
+    heads = attitude_heads() + (["closing never started"] if at == "closing" else [])
     rows = []
     for axis in TUMBLE_AXES:
         for rate in TUMBLE_RATES:
@@ -208,28 +286,31 @@ def attitude_table(designs: list[str], cells: list, records: dict, design_of: di
                 continue
             for d in designs:
                 counts = {}
-                bin_of = {}          # the policies share the cell's attitudes
+                bin_of = {}          # the policies share the cell's attitudes at launch
                 for policy in POLICIES:
                     rec = records.get((_label(axis, rate, policy), d))
                     if rec is None or not rec.verdicts:
                         continue
-                    counts[policy] = attitude_counts(design_of[d], cell.config, cell.noise,
-                                                     ((v.seed, v.success) for v in rec.verdicts),
-                                                     bin_of)
-                if not counts or all(sum(n[1:]) == 0 for _ok, n in counts.values()):
+                    if at == "launch":
+                        counts[policy] = attitude_counts(
+                            design_of[d], cell.config, cell.noise,
+                            ((v.seed, v.success) for v in rec.verdicts), bin_of)
+                    elif rec.closing_times is not None:
+                        counts[policy] = closing_attitude_counts(
+                            design_of[d], cell.config, cell.noise,
+                            ((v.seed, v.success, t)
+                             for v, t in zip(rec.verdicts, rec.closing_times)))
+                if not counts or all(sum(n[1:len(edges) - 1]) == 0 for _ok, n in counts.values()):
                     continue
                 parts = []
-                for k in range(len(edges) - 1):
+                for k in range(len(heads)):
                     got = [f"{counts[p][0][k]}/{counts[p][1][k]}" if p in counts else "-"
                            for p in POLICIES]
                     parts.append(" / ".join(got))
                 rows.append(f"| {axis} | {rate:g} | {d} | " + " | ".join(parts) + " |")
     if not rows:
         return ""
-    return ("Successes by the stage's attitude at launch, threshold / adaptive: a_z = |cos| of "
-            "the angle between its long axis and the line of sight (0: lying across it, 1: "
-            "end-on), from each sample's orientation noise and tumble phase.  Cells whose "
-            "samples all lie across the line of sight (a_z < "
+    return (_AT[at] + "  Cells whose samples all lie across the line of sight (a_z < "
             f"{edges[1]:g}) are left out.\n\n"
             "| axis | rate (deg/s) | design | " + " | ".join(heads) + " |\n"
             "|---|---|---|" + "---|" * len(heads) + "\n" + "\n".join(rows) + "\n")
