@@ -199,8 +199,12 @@ def test_validate_of_a_tumbling_target_splits_by_attitude(tmp_path):
                             [(i, False) for i in range(4)])
     assert [b["samples"] for b in d["by_attitude"]] == n and sum(n) == 4
     assert [b["successes"] for b in d["by_attitude"]] == [0, 0, 0]   # 2 s: none captured
+    # at closing: a 2 s horizon closes none of them
+    assert [b["samples"] for b in d["by_attitude_at_closing"]] == [0, 0, 0, 4]
+    assert d["by_attitude_at_closing"][-1]["a_z_from"] is None
     text = tethernet(*args)
     assert "| time-min | 0/" in text.stdout and "a_z >= 0.9" in text.stdout
+    assert "| time-min | 0/0 | 0/0 | 0/0 | 0/4 |" in text.stdout
     rest = tethernet("validate", "--design", "time-min", "--samples", "1", "--settle-time", "1",
                      "--horizon", "2", "--workers", "0", "--results", str(tmp_path / "r.jsonl"),
                      "--no-progress")

@@ -161,6 +161,8 @@ def run(args) -> int:
             d["results_file"] = str(path)
             if spun:
                 d["by_attitude"] = by_attitude(r, design_by_label[r.label], config, model)
+                d["by_attitude_at_closing"] = by_attitude(r, design_by_label[r.label], config,
+                                                          model, at="closing")
             d["machines"] = ResultsFile(path).machine_counts({r.key})
             out.append(d)
         print_json(out if args.reference else out[0])
@@ -212,26 +214,42 @@ def results_table(results) -> str:
     return "\n".join([line(head), line(["-" * w for w in widths])] + [line(r) for r in rows])
 
 
-def by_attitude(result, design, config, model) -> list[dict]:
-    """A tumbling run's successes per bin of |a_z| at launch (the cosine between the
-    stage's long axis and the line of sight, ``studies.tumbling.long_axis_los``)."""
-    from ..studies.tumbling import ATTITUDE_BINS, attitude_counts
+def by_attitude(result, design, config, model, at: str = "launch") -> list[dict]:
+    """A tumbling run's successes per bin of |a_z| (the cosine between the stage's long
+    axis and the line of sight, ``studies.tumbling.long_axis_los``) at launch, or at each
+    sample's closing time (``at="closing"``, the stage turned free of torque; a last
+    entry, a_z None, for the samples whose closing never started)."""
+    from ..studies.tumbling import ATTITUDE_BINS, attitude_counts, closing_attitude_counts
 
-    ok, n = attitude_counts(design, config, model, ((s.seed, s.success) for s in result.samples))
-    return [{"a_z_from": ATTITUDE_BINS[k], "a_z_to": ATTITUDE_BINS[k + 1], "samples": n[k],
-             "successes": ok[k]} for k in range(len(n))]
+    if at == "closing":
+        ok, n = closing_attitude_counts(design, config, model,
+                                        ((s.seed, s.success, float(s.closing_time))
+                                         for s in result.samples))
+    else:
+        ok, n = attitude_counts(design, config, model,
+                                ((s.seed, s.success) for s in result.samples))
+    k = len(ATTITUDE_BINS) - 1
+    return [{"a_z_from": ATTITUDE_BINS[j] if j < k else None,
+             "a_z_to": ATTITUDE_BINS[j + 1] if j < k else None,
+             "samples": n[j], "successes": ok[j]} for j in range(len(n))]
 
 
 def attitude_text(results, design_by_label: dict, config, model) -> str:
-    """Markdown: each design's successes per bin of |a_z| at launch."""
+    """Markdown: each design's successes per bin of |a_z| at launch, then at closing."""
     from ..studies.tumbling import attitude_heads
 
-    rows = []
-    for r, _path in results:
-        bins = by_attitude(r, design_by_label[r.label], config, model)
-        rows.append(f"| {r.label} | " + " | ".join(f"{b['successes']}/{b['samples']}"
-                                                   for b in bins) + " |")
-    heads = attitude_heads()
-    return ("successes by the stage's attitude at launch (a_z: |cos| of the angle between "
-            "its long axis and the line of sight; 1: end-on)\n\n| design | " + " | ".join(heads)
-            + " |\n|---|" + "---|" * len(heads) + "\n" + "\n".join(rows))
+    out = []
+    for at, heads, what in (
+            ("launch", attitude_heads(), "at launch (a_z: |cos| of the angle between its long "
+                                         "axis and the line of sight; 1: end-on)"),
+            ("closing", attitude_heads() + ["closing never started"],
+             "at closing (turned free of torque from launch to the sample's closing time)")):
+        rows = []
+        for r, _path in results:
+            bins = by_attitude(r, design_by_label[r.label], config, model, at)
+            rows.append(f"| {r.label} | " + " | ".join(f"{b['successes']}/{b['samples']}"
+                                                       for b in bins) + " |")
+        out.append(f"successes by the stage's attitude {what}\n\n| design | "
+                   + " | ".join(heads) + " |\n|---|" + "---|" * len(heads) + "\n"
+                   + "\n".join(rows))
+    return "\n\n".join(out)
