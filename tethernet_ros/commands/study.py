@@ -266,7 +266,7 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
         summary["adaptive_vs_threshold"] = [
             {"axis": axis, "rate_deg_s": rate, "design": d, "p_diff": p.p_diff,
              "adaptive_only": p.b_only, "threshold_only": p.a_only, "mcnemar_p": p.mcnemar_p,
-             "t_diff": p.b.mean_t - p.a.mean_t} for (axis, rate, d), p in policies.items()]
+             "t_diff": p.t_diff} for (axis, rate, d), p in policies.items()]
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     if args.study == "tumbling":
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)

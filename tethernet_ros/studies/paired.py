@@ -66,8 +66,13 @@ class PairedStats:
         return self.flips / self.a.n if self.a.n else math.nan
 
     @property
+    def t_diff(self) -> float:
+        """Mean T of b less that of a (s)."""
+        return self.b.mean_t - self.a.mean_t
+
+    @property
     def t_rel_diff(self) -> float:
-        return (self.b.mean_t - self.a.mean_t) / self.a.mean_t
+        return self.t_diff / self.a.mean_t
 
     @property
     def within_half_width(self) -> bool:

@@ -341,7 +341,7 @@ def policy_table(pairs: dict) -> str:
         return ""
     rows = []
     for (axis, rate, d), p in pairs.items():
-        dt = p.b.mean_t - p.a.mean_t
+        dt = p.t_diff
         rows.append(f"| {axis or 'at rest'} | {rate:g} | {d} | {100 * p.p_diff:+.1f} | "
                     f"{p.b_only} / {p.a_only} | {p.mcnemar_p:.2g} | "
                     + ("-" if not math.isfinite(dt) else f"{dt:+.2f}") + " |")
