@@ -54,6 +54,12 @@ def test_long_axis_against_the_line_of_sight_follows_the_phase():
         assert math.isclose(long_axis_los(design, flat, noise, seed), abs(math.sin(phi)),
                             abs_tol=1e-12)
         assert long_axis_los(design, roll, noise, seed) < 1e-12
+    # a sample's launch attitude is computed once per (design, tumble, noise, seed): the
+    # roll above did not reuse the flat spin's, and asking again reuses it
+    from tethernet_ros.studies.tumbling import _launch_attitude, _target_inertia
+    inertia = _target_inertia(flat.target)
+    assert _launch_attitude(design, flat, noise, 0, inertia) is \
+        _launch_attitude(design, flat, noise, 0, inertia)
     assert [attitude_bin(a) for a in (0.0, 0.49, 0.5, 0.89, 0.9, 1.0)] == [0, 0, 1, 1, 2, 2]
 
 

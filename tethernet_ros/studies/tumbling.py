@@ -162,13 +162,8 @@ def long_axis_los(design, config, noise, seed: int, t: float = 0.0) -> float:
     closing time it is the attitude the stage would have had untouched."""
     import numpy as np
 
-    from ..core.kernel import quat_to_matrix
-    from ..core.scenario import initial_attitude, world_for
-
-    world = world_for(design, _noise_sample(noise, seed), config.tumble)
     inertia = _target_inertia(config.target)
-    q, _w, ang_mom = initial_attitude(world, inertia)
-    e = quat_to_matrix(q)[:, 0]
+    e, ang_mom = _launch_attitude(design, config, noise, seed, inertia)
     big_l = float(np.linalg.norm(ang_mom))
     if t and big_l > 0.0:
         lhat = ang_mom / big_l
@@ -176,6 +171,27 @@ def long_axis_los(design, config, noise, seed: int, t: float = 0.0) -> float:
         e = (e * math.cos(a) + np.cross(lhat, e) * math.sin(a)
              + lhat * float(np.dot(lhat, e)) * (1.0 - math.cos(a)))
     return abs(float(e[2]))
+
+
+def _launch_attitude(design, config, noise, seed: int, inertia):
+    """(long axis at launch as a unit 3-vector, angular momentum (kg m^2/s)) of the sample
+    drawing ``seed``, computed once per process: the attitude tables at launch and at
+    closing, and both policies of a cell, ask for the same samples."""
+    key = (repr(design), repr(config.tumble), repr(config.target), repr(noise), int(seed))
+    got = _ATTITUDES.get(key)
+    if got is None:
+        from ..core.kernel import quat_to_matrix
+        from ..core.scenario import initial_attitude, world_for
+
+        world = world_for(design, _noise_sample(noise, seed), config.tumble)
+        q, _w, ang_mom = initial_attitude(world, inertia)
+        if len(_ATTITUDES) >= 50_000:
+            _ATTITUDES.clear()
+        got = _ATTITUDES[key] = (quat_to_matrix(q)[:, 0].copy(), ang_mom.copy())
+    return got
+
+
+_ATTITUDES: dict = {}
 
 
 def _noise_sample(noise, seed: int):
