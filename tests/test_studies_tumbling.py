@@ -203,3 +203,35 @@ def test_closing_attitude_table_counts_the_samples_that_never_closed():
         in text and "closing never started" in text
     assert attitude_table(["mass-min"], cells, {("flat 4 threshold", "mass-min"): no_times},
                           {"mass-min": design}, at="closing") == ""
+
+
+def test_rest_table_pairs_each_tumbling_cell_with_the_rest_cell_of_its_policy():
+    """A tumbling cell is compared with the target at rest under the same policy, seed by
+    seed; a policy without its rest cell shows '-' and a cell with neither is left out."""
+    from scipy.stats import binomtest
+
+    from tethernet_ros.montecarlo.seeds import sample_seed
+    from tethernet_ros.studies.summary import CellRecord, Verdict
+    from tethernet_ros.studies.tumbling import rest_pairs, rest_table
+
+    seeds = [sample_seed(0, i) for i in range(20)]
+
+    def rec(label, ok):
+        s = CellStats(label, "a", 20, sum(ok), sum(ok) / 20, 0.0, 1.0, 30.0, {})
+        return CellRecord(s, "k", 0, tuple(Verdict(x, b) for x, b in zip(seeds, ok)))
+
+    rest = [i % 2 == 0 for i in range(20)]              # even samples at rest
+    spun = [i % 2 == 0 or i < 7 for i in range(20)]     # and samples 1, 3, 5 spun
+    records = {("rest threshold", "a"): rec("rest threshold", rest),
+               ("los 4 threshold", "a"): rec("los 4 threshold", spun),
+               ("los 4 adaptive", "a"): rec("los 4 adaptive", spun),   # no adaptive rest
+               ("flat 8 adaptive", "a"): rec("flat 8 adaptive", spun)}
+    pairs = rest_pairs(["a"], records)
+    assert list(pairs) == [("los", 4.0, "threshold", "a")]
+    p = pairs[("los", 4.0, "threshold", "a")]
+    assert (p.b_only, p.a_only) == (3, 0)
+    assert math.isclose(p.mcnemar_p, binomtest(0, 3, 0.5).pvalue)
+    text = rest_table(pairs)
+    assert f"| los | 4 | a | +15.0 / - | 3/0 / - | {p.mcnemar_p:.2g} / - |" in text
+    assert "flat" not in text.split("|---|")[-1]
+    assert rest_table({}) == ""

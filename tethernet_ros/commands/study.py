@@ -230,10 +230,13 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"
     if args.study == "tumbling":
         from ..studies.tumbling import (attitude_table, plot_tumbling, policy_pairs,
-                                        policy_table, tumbling_table)
+                                        policy_table, rest_pairs, rest_table,
+                                        tumbling_table)
         table = tumbling_table(designs, stats)
         policies = policy_pairs(designs, records)
-        for part in (policy_table(policies), attitude_table(designs, cells, records, design_of),
+        vs_rest = rest_pairs(designs, records)
+        for part in (policy_table(policies), rest_table(vs_rest),
+                     attitude_table(designs, cells, records, design_of),
                      attitude_table(designs, cells, records, design_of, at="closing")):
             if part:
                 table += "\n" + part
@@ -267,6 +270,11 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
             {"axis": axis, "rate_deg_s": rate, "design": d, "p_diff": p.p_diff,
              "adaptive_only": p.b_only, "threshold_only": p.a_only, "mcnemar_p": p.mcnemar_p,
              "t_diff": p.t_diff} for (axis, rate, d), p in policies.items()]
+        summary["tumble_vs_rest"] = [
+            {"axis": axis, "rate_deg_s": rate, "policy": pol, "design": d,
+             "p_diff": p.p_diff, "spun_only": p.b_only, "rest_only": p.a_only,
+             "mcnemar_p": p.mcnemar_p, "t_diff": p.t_diff}
+            for (axis, rate, pol, d), p in vs_rest.items()]
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     if args.study == "tumbling":
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)

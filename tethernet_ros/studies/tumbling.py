@@ -1,7 +1,8 @@
 """The tumbling study's report: P*_s (with its Wilson interval) and mean T of each design
 against the tumble rate about each axis, under the threshold and the adaptive policy; the
 rate at which each design falls below 90 %; what the adaptive policy buys over the
-threshold on the same samples; and the figure.
+threshold, and what each tumble changes against the target at rest, on the same samples;
+and the figure.
 
 The cells are ``studies.cells.tumbling_cells``: 'rest <policy>' and '<axis> <rate>
 <policy>'.  A cell without results yet (a study still running) is shown as '-'; rates
@@ -346,6 +347,55 @@ def policy_pairs(designs: list[str], records: dict) -> dict:
             out[(axis, rate, d)] = PairedStats.from_samples(th.stats, ad.stats, th.verdicts,
                                                             ad.verdicts)
     return out
+
+
+def rest_pairs(designs: list[str], records: dict) -> dict:
+    """(axis, rate, policy, design) -> PairedStats of the tumbling cell (b) against the
+    target at rest (a) under the same policy, over the same samples, for each cell where
+    both are complete.  ``records``: (cell label, design) -> CellRecord."""
+    out = {}
+    for axis in TUMBLE_AXES:
+        for rate in TUMBLE_RATES:
+            for policy in POLICIES:
+                for d in designs:
+                    rest = records.get((_label(None, 0.0, policy), d))
+                    spun = records.get((_label(axis, rate, policy), d))
+                    if (rest is None or spun is None or not rest.stats.n
+                            or rest.stats.n != spun.stats.n):
+                        continue
+                    out[(axis, rate, policy, d)] = PairedStats.from_samples(
+                        rest.stats, spun.stats, rest.verdicts, spun.verdicts)
+    return out
+
+
+def rest_table(pairs: dict) -> str:
+    """Markdown: what each tumble changes against the target at rest, over the same
+    samples, threshold / adaptive: the change of P*_s (points), the samples captured only
+    under the tumble / only at rest, and McNemar's exact p on them.  A design whose
+    verdicts a slow spin re-draws (many samples on both sides, P*_s unchanged) is one
+    whose outcome the sample does not settle."""
+    if not pairs:
+        return ""
+    rows = []
+    for axis in TUMBLE_AXES:
+        for rate in TUMBLE_RATES:
+            for d in dict.fromkeys(k[3] for k in pairs):
+                got = {pol: pairs.get((axis, rate, pol, d)) for pol in POLICIES}
+                if not any(got.values()):
+                    continue
+                cols = []
+                for fmt in (lambda q: f"{100 * q.p_diff:+.1f}",
+                            lambda q: f"{q.b_only}/{q.a_only}",
+                            lambda q: f"{q.mcnemar_p:.2g}"):
+                    cols.append(" / ".join("-" if got[pol] is None else fmt(got[pol])
+                                           for pol in POLICIES))
+                rows.append(f"| {axis} | {rate:g} | {d} | " + " | ".join(cols) + " |")
+    return ("What each tumble changes against the target at rest, on the same samples and "
+            "under the same policy (threshold / adaptive): the change of P*_s, the samples "
+            "captured only under the tumble / only at rest, and McNemar's exact two-sided p "
+            "on those.\n\n"
+            "| axis | rate (deg/s) | design | P*_s change (points) | captured only spun / "
+            "only at rest | McNemar p |\n|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
 
 
 def policy_table(pairs: dict) -> str:
