@@ -340,13 +340,19 @@ def policy_pairs(designs: list[str], records: dict) -> dict:
     out = {}
     for axis, rate in [(None, 0.0)] + [(a, r) for a in TUMBLE_AXES for r in TUMBLE_RATES]:
         for d in designs:
-            th = records.get((_label(axis, rate, "threshold"), d))
-            ad = records.get((_label(axis, rate, "adaptive"), d))
-            if th is None or ad is None or not th.stats.n or th.stats.n != ad.stats.n:
-                continue
-            out[(axis, rate, d)] = PairedStats.from_samples(th.stats, ad.stats, th.verdicts,
-                                                            ad.verdicts)
+            got = _paired(records.get((_label(axis, rate, "threshold"), d)),
+                          records.get((_label(axis, rate, "adaptive"), d)))
+            if got is not None:
+                out[(axis, rate, d)] = got
     return out
+
+
+def _paired(a, b) -> PairedStats | None:
+    """PairedStats of CellRecord b against CellRecord a over the same samples, or None
+    unless both are there with the same (non-zero) number of samples."""
+    if a is None or b is None or not a.stats.n or a.stats.n != b.stats.n:
+        return None
+    return PairedStats.from_samples(a.stats, b.stats, a.verdicts, b.verdicts)
 
 
 def rest_pairs(designs: list[str], records: dict) -> dict:
@@ -358,13 +364,10 @@ def rest_pairs(designs: list[str], records: dict) -> dict:
         for rate in TUMBLE_RATES:
             for policy in POLICIES:
                 for d in designs:
-                    rest = records.get((_label(None, 0.0, policy), d))
-                    spun = records.get((_label(axis, rate, policy), d))
-                    if (rest is None or spun is None or not rest.stats.n
-                            or rest.stats.n != spun.stats.n):
-                        continue
-                    out[(axis, rate, policy, d)] = PairedStats.from_samples(
-                        rest.stats, spun.stats, rest.verdicts, spun.verdicts)
+                    got = _paired(records.get((_label(None, 0.0, policy), d)),
+                                  records.get((_label(axis, rate, policy), d)))
+                    if got is not None:
+                        out[(axis, rate, policy, d)] = got
     return out
 
 
