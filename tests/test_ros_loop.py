@@ -41,6 +41,7 @@ from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.core.policies import PolicyConfig  # noqa: E402
 from tethernet_ros.core.scenario import world_for  # noqa: E402
 from tethernet_ros.core.sensing import SensingConfig  # noqa: E402
+from tethernet_ros.montecarlo.seeds import sample_seed  # noqa: E402
 from tethernet_ros.core.tumble import TumbleConfig  # noqa: E402
 from tethernet_ros.montecarlo import InProcessBackend, evaluate  # noqa: E402
 from tethernet_ros.ros import conversions as conv  # noqa: E402
@@ -235,8 +236,14 @@ def test_user_controller_measured_through_two_suites(tmp_path):
 
 
 class SilentFirstEpisode(Node):
-    """A controller (for the test below) that never answers its first episode's
-    measurements, then answers as the threshold rule."""
+    """A controller (for the test below) that never answers the first sample's
+    measurements (its episode id names the sample's seed, bags.naming.sample_name), and
+    answers every other as the threshold rule.  (It once keyed on the first episode it
+    saw: when it subscribed after the first episode had timed out, it stayed silent on the
+    second too.)"""
+
+    #: the first sample of the test's ``evaluate(DESIGN, 2, 4, ...)``
+    SILENT = f"_seed{sample_seed(4, 0)}_"
 
     def __init__(self):
         from rclpy.qos import QoSProfile, ReliabilityPolicy
@@ -246,11 +253,9 @@ class SilentFirstEpisode(Node):
         qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
         self.pub = self.create_publisher(ClosingDecision, TOPICS["closing_decision"], qos)
         self.create_subscription(Measurement, TOPICS["measurement"], self.on_measurement, qos)
-        self.first = None
 
     def on_measurement(self, m):
-        self.first = self.first or m.episode_id
-        if m.episode_id == self.first:
+        if self.SILENT in m.episode_id:
             return
         close = m.valid and m.net_point.z - m.target_position.z >= m.closing_displacement
         self.pub.publish(conv.decision_msg(m, close, self.get_name()))
