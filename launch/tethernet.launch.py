@@ -16,8 +16,12 @@
 Starts sim_node, monitor_node, actuator_node, sensor_node and capture_node with the
 parameters of config/tethernet.yaml (installed to share/tethernet_ros/config);
 ``lockstep`` sets the capture node's parameter of that name, ``builtin_policy`` the
-actuator node's (false implies lockstep: docs/ros.md, the controller contract); both win
-over the parameter file's values.  ``name=`` reaches each
+actuator node's (false implies lockstep: docs/ros.md, the controller contract), and
+``example_controller:=true`` starts the example controller as the one decider (the
+built-in policy off); the rule is tethernet_ros/ros/launch_arguments.py's.  launch_ros
+passes them as a ``/**`` parameter file after ``params_file``; they take effect because
+config/tethernet.yaml keeps every parameter under ``/**`` (a ``/<node>:`` entry would
+win; tests/test_ros_launch.py).  ``name=`` reaches each
 process as ``-r __node:=<name>``, which renames every node in it: the capture node's
 recorder names itself ``<name>_recorder`` with a remap of its own, so names stay unique.
 Without a ROS install (PyPI wheels only) use `tethernet capture --via ros`, which starts
@@ -27,49 +31,34 @@ import os
 
 from ament_index_python.packages import get_package_share_directory
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
-from launch.conditions import IfCondition
-from launch.substitutions import LaunchConfiguration, PythonExpression
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
+from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
-from launch_ros.parameter_descriptions import ParameterValue
 
-# the node executables (tethernet_ros/ros/names.py NODES; setup.py console scripts)
-NODES = ("sim_node", "monitor_node", "actuator_node", "sensor_node", "capture_node")
+from tethernet_ros.ros.launch_arguments import LAUNCH_ARGUMENTS, decider, node_overrides
+from tethernet_ros.ros.names import NODES
+
+
+def _nodes(context):
+    """The suite's Node actions for the launch arguments' values."""
+    values = {name: LaunchConfiguration(name).perform(context) for name in LAUNCH_ARGUMENTS}
+    params_file = values.pop("params_file") or os.path.join(
+        get_package_share_directory("tethernet_ros"), "config", "tethernet.yaml")
+    overrides = node_overrides(values)
+    actions = [Node(package="tethernet_ros", executable=name, name=name, output="screen",
+                    parameters=[params_file, *([overrides[name]] if name in overrides else [])])
+               for name in NODES]
+    if decider(values) == "example_controller":
+        actions.append(Node(package="tethernet_ros", executable="example_controller",
+                            name="example_controller", output="screen"))
+    return actions
 
 
 def generate_launch_description():
-    default_params = os.path.join(get_package_share_directory("tethernet_ros"), "config",
-                                  "tethernet.yaml")
-    params_file = LaunchConfiguration("params_file")
-    builtin = LaunchConfiguration("builtin_policy")
-    # lockstep when asked, and whenever the built-in policy is off (a user's node decides)
-    lockstep = PythonExpression(["'", LaunchConfiguration("lockstep"), "'.lower() == 'true' or '",
-                                 builtin, "'.lower() != 'true'"])
-    overrides = {
-        "actuator_node": {"builtin_policy": ParameterValue(builtin, value_type=bool)},
-        "capture_node": {"lockstep": ParameterValue(lockstep, value_type=bool)},
-    }
-    actions = [
-        DeclareLaunchArgument("params_file", default_value=default_params,
-                              description="ROS parameter file of the suite"),
-        DeclareLaunchArgument("lockstep", default_value="false",
-                              description="run the closing policy through ROS (sim_node waits "
-                                          "for a ClosingDecision every control period)"),
-        DeclareLaunchArgument("builtin_policy", default_value="true",
-                              description="false: actuator_node leaves the closing decisions "
-                                          "to your controller node (implies lockstep)"),
-        DeclareLaunchArgument("example_controller", default_value="false",
-                              description="true: also start the example controller (with "
-                                          "builtin_policy:=false)"),
+    return LaunchDescription([
+        *(DeclareLaunchArgument(name, default_value=arg.default, description=arg.description)
+          for name, arg in LAUNCH_ARGUMENTS.items()),
         SetEnvironmentVariable("ROS_AUTOMATIC_DISCOVERY_RANGE",
                                os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")),
-    ]
-    for name in NODES:
-        actions.append(Node(package="tethernet_ros", executable=name, name=name,
-                            output="screen",
-                            parameters=[params_file, *([overrides[name]] if name in overrides
-                                                       else [])]))
-    actions.append(Node(package="tethernet_ros", executable="example_controller",
-                        name="example_controller", output="screen",
-                        condition=IfCondition(LaunchConfiguration("example_controller"))))
-    return LaunchDescription(actions)
+        OpaqueFunction(function=_nodes),
+    ])

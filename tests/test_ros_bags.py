@@ -279,9 +279,12 @@ def test_parameter_file_matches_node_defaults():
                 out[f"{prefix}{k}"] = v
         return out
 
+    # every parameter under /**: a /<node>: entry would beat launch arguments and -p
+    # (config/tethernet.yaml's header; tests/test_ros_launch.py)
+    assert set(doc) == {"/**"}
     shared = flat(doc["/**"]["ros__parameters"])
     for node, defaults in DEFAULTS.items():
-        merged = {**shared, **flat(doc[f"/{node}"]["ros__parameters"])}
+        merged = shared
         declared = {k: merged[k] for k in defaults}            # every default is in the file
         assert declared == defaults, node
         for k, v in defaults.items():                          # same types (rclpy is strict)
@@ -294,8 +297,13 @@ def test_launch_file_and_console_scripts():
     assert any(isinstance(n, ast.FunctionDef) and n.name == "generate_launch_description"
                for n in tree.body)
     setup = (ROOT / "setup.py").read_text()
+    # the launch file starts names.NODES, with the launch arguments' rule
+    assert "from tethernet_ros.ros.names import NODES" in launch
+    assert "from tethernet_ros.ros.launch_arguments import" in launch
+    from tethernet_ros.ros.names import NODES
+
+    assert set(NODES) == set(DEFAULTS)
     for node in DEFAULTS:
-        assert f'"{node}"' in launch
         assert f"{node} = tethernet_ros.ros.nodes.{node}:main" in setup
 
 

@@ -16,15 +16,14 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
 
 rclpy = pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
 
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter_client import AsyncParameterClient  # noqa: E402
+from ros_graph import Graph, private_domain, start_node, stop  # noqa: E402
 
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
@@ -51,61 +50,6 @@ def suite(tmp_path_factory):
     s.start()
     yield s
     s.stop()
-
-
-class Graph:
-    """A test node on a private context in ``domain``, spun on demand."""
-
-    def __init__(self, domain: int, name: str = "tethernet_test_graph"):
-        self.context = rclpy.Context()
-        self.context.init(domain_id=domain)
-        self.node = rclpy.create_node(name, context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-
-    def spin_until(self, predicate, timeout: float = 30.0) -> bool:
-        deadline = time.monotonic() + timeout
-        while not predicate() and time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.02)
-        return bool(predicate())
-
-    def result(self, future, timeout: float = 30.0):
-        assert self.spin_until(future.done, timeout), "no answer"
-        return future.result()
-
-    def names(self) -> set[str]:
-        return {(ns.rstrip("/") + "/" + n) for n, ns in self.node.get_node_names_and_namespaces()}
-
-    def params(self, remote: str) -> AsyncParameterClient:
-        client = AsyncParameterClient(self.node, remote)
-        assert self.spin_until(client.services_are_ready), f"no parameter services of {remote}"
-        return client
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
-
-
-def start_node(name: str, args: list[str], env: dict, log: Path) -> subprocess.Popen:
-    return subprocess.Popen(
-        [sys.executable, "-m", f"tethernet_ros.ros.nodes.{name}", "--ros-args", *args],
-        stdout=open(log, "wb"), stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env,
-        start_new_session=True)
-
-
-def stop(proc: subprocess.Popen) -> None:
-    if proc.poll() is None:
-        proc.terminate()
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-
-
-def private_domain(offset: int) -> int:
-    return (os.getpid() + offset) % 100 + 1
 
 
 # --- node names under launch ------------------------------------------------------------------

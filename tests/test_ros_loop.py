@@ -36,7 +36,7 @@ from rclpy.node import Node  # noqa: E402
 from tethernet_ros.bags import read_bag  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
-from tethernet_ros.core.episode import run_episode  # noqa: E402
+from tethernet_ros.core.episode import RESULT_FIELDS, run_episode  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.core.policies import PolicyConfig  # noqa: E402
 from tethernet_ros.core.scenario import world_for  # noqa: E402
@@ -70,8 +70,11 @@ def same(a, b) -> bool:
 
 
 def assert_same_result(r, ref):
-    for f in ("success", "settled_cqi", "locked_pairs", "closing_time", "completion_time",
-              "failure_reason", "mass"):
+    """Every field of the library's result, bit for bit (the wall time aside; the seed
+    is checked where the test knows it)."""
+    for f in RESULT_FIELDS:
+        if f in ("wall_time", "seed"):
+            continue
         assert same(getattr(r, f), getattr(ref, f)), (f, getattr(r, f), getattr(ref, f))
 
 
@@ -202,6 +205,38 @@ def test_bag_records_the_loop_and_replay_replays_it(threshold_capture):
     assert loop["sensed_recomputed"] == loop["decisions_recomputed"] == len(truths)
     assert loop["sensed_mismatches"] == loop["decision_mismatches"] == 0
     assert loop["closing_step"] == decisions[-1].step and rep["ok"]
+
+
+def test_two_deciders_abort_the_episode_and_replay_flags_them(suite, tmp_path):
+    """The built-in policy and the example controller both answer: the episode ends
+    ABORTED naming the two, its bag shows two deciders to replay, and with one decider
+    again the suite captures as before."""
+    from tethernet_ros.commands.replay import replay
+    from tethernet_ros.ros.names import TWO_CONTROLLERS
+    from tethernet_ros.ros.suite import RosCaptureError, controller_command
+
+    deciders = lambda: suite._node.count_publishers(TOPICS["closing_decision"])  # noqa: E731
+    proc = subprocess.Popen(controller_command("example_controller"), env=suite.env,
+                            stdout=open(tmp_path / "controller.log", "wb"),
+                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                            start_new_session=True)
+    try:
+        assert suite.spin_until(lambda: deciders() >= 2, 60)
+        with pytest.raises(RosCaptureError, match=f"^ABORTED: {TWO_CONTROLLERS}: 2 controllers"
+                           ) as err:
+            suite.capture(DESIGN, SEED, bag_name="loop_two_deciders")
+        assert "lead_controller" in str(err.value) and "(built-in threshold)" in str(err.value)
+        bag = re.search(r"\(bag: (.*)\)$", str(err.value)).group(1)
+        assert bag.endswith(".partial")
+        report = replay(bag)
+        assert not report["ok"]
+        assert any(p.startswith("two deciders") for p in report["problems"]), report["problems"]
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+    assert suite.spin_until(lambda: deciders() == 1, 30)
+    result, _ = suite.capture(DESIGN, SEED, bag_name="loop_one_decider_again")
+    assert_same_result(result, run_episode(DESIGN, NOISE.sample(SEED), CONFIG, record_trace=False))
 
 
 def test_user_controller_measured_through_two_suites(tmp_path):

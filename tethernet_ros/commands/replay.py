@@ -9,7 +9,8 @@ seeded as the sensor node's, turns every recorded true measurement into the sens
 which must be the recorded one bit for bit; the built-in policy (``Policy``) decides on
 every recorded sensed measurement as the actuator did, and must give the recorded
 decisions (a user's controller's are counted, not recomputed); and the episode's closing
-time must be the step of the first decision to close.  Messages of the types replay does
+time must be the step of the first decision to close; decisions from two nodes (two
+controller names, or a control step decided twice) are reported as two deciders.  Messages of the types replay does
 not use (markers, target poses, /clock, the sensed state in standard messages) are
 skipped and counted per topic.  A truncated or corrupted bag is read up
 to the damage and the damage is reported; exit status 1 then, or on any disagreement; 0 when everything
@@ -176,6 +177,19 @@ def _replay_loop(setup, actions, world, truths, sensed, decisions, result, probl
 
     truth_at, sensed_at, decided_at = by_step(truths), by_step(sensed), by_step(decisions)
     controllers = sorted({d.controller for d in decisions})
+    # one decider per episode (docs/ros.md, the controller contract): two names, or two
+    # decisions for one control step, are two nodes answering
+    per_step = {}
+    for d in decisions:
+        per_step[int(d.step)] = per_step.get(int(d.step), 0) + 1
+    doubled = sorted(step for step, n in per_step.items() if n > 1)
+    if len(controllers) > 1 or doubled:
+        problems.append(
+            f"two deciders: {len(decisions)} decisions for {len(per_step)} control steps"
+            + (f" from {', '.join(repr(c) for c in controllers)}" if len(controllers) > 1 else "")
+            + (f"; {len(doubled)} steps decided more than once (first: step {doubled[0]})"
+               if doubled else "")
+            + " (the controller contract allows one node to decide)")
     loop = {"true_measurements": len(truths), "measurements": len(sensed),
             "decisions": len(decisions), "controllers": controllers,
             "sensed_recomputed": 0, "sensed_mismatches": 0,

@@ -27,7 +27,8 @@ not answer in time (the capture node's ABORTED with names.CONTROLLER_TIMEOUT) is
 sample with that reason (category 'controller did not answer'), not retried; the suite
 goes on with the next.
 
-Not carried by the messages: ``steps`` (reported as -1) and ``max_penetration`` (NaN).
+Every field of the library's result comes back (``steps`` and ``max_penetration`` in the
+EpisodeResult message; a bag recorded before they were: -1 and NaN).
 """
 from __future__ import annotations
 
@@ -275,6 +276,5 @@ class RosBackend(EpisodeBackend):
             trace = {"time": [float(m.sim_time) for m in metrics],
                      "cqi": [float(m.cqi) for m in metrics],
                      "locked_pairs": [int(m.locked_pairs) for m in metrics]}
-        # steps and penetration are not carried by the messages
-        return sample_result(task, r, trace=trace, wall_time=wall, steps=-1,
-                             max_penetration=math.nan)
+        return sample_result(task, r, trace=trace, wall_time=wall, steps=r.steps,
+                             max_penetration=r.max_penetration)

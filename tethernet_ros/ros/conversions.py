@@ -544,18 +544,23 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
     m.mass = float(result.mass)
     m.failure_reason = result.failure_reason
     m.wall_time = float(result.wall_time)
+    steps = getattr(result, "steps", -1)
+    m.steps = -1 if steps is None else int(steps)
+    pen = getattr(result, "max_penetration", math.nan)
+    m.max_penetration = math.nan if pen is None else float(pen)
     return m
 
 
 def episode_result_from_msg(m) -> EpisodeResult:
-    """Core EpisodeResult of a message.  ``steps`` (-1) and ``max_penetration`` (NaN) are
-    not carried by the message."""
+    """Core EpisodeResult of a message (a message recorded before it carried ``steps``
+    and ``max_penetration``: -1 and NaN)."""
     return EpisodeResult(
         success=bool(m.success), settled_cqi=float(m.settled_cqi), locked_pairs=int(m.locked_pairs),
         closing_time=float(m.closing_time) if m.closing_time >= 0 else math.nan,
         completion_time=float(m.completion_time), mass=float(m.mass),
         failure_reason=m.failure_reason, wall_time=float(m.wall_time),
-        seed=None if m.nominal else int(m.seed), steps=-1, max_penetration=math.nan)
+        seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
+        max_penetration=float(getattr(m, "max_penetration", math.nan)))
 
 
 # --- the RunCapture service and the Capture action ------------------------------------------

@@ -42,9 +42,31 @@ def is_builtin_controller(controller: str) -> bool:
     return "(built-in " in controller
 
 
-class ControllerTimeout(RuntimeError):
+class LoopFailure(RuntimeError):
+    """A lockstep episode's loop failed: the episode ends, its result failed with this
+    message as the reason, and the capture node answers ABORTED with it."""
+
+
+class ControllerTimeout(LoopFailure):
     """No decision came for a control step in time (the message is the failure reason,
     starting with names.CONTROLLER_TIMEOUT)."""
+
+
+class ControllerConflict(LoopFailure):
+    """Two publishers sent ClosingDecisions in one episode (the message is the failure
+    reason, starting with names.TWO_CONTROLLERS)."""
+
+
+def step_time_summary(times: list[tuple[float, float]]) -> str:
+    """One line on a lockstep episode's control steps: ``times`` holds, per step, (s of
+    wall time from the last step's decision to this one's, s of it spent waiting for the
+    decision after the true measurement went out)."""
+    import numpy as np
+
+    a = np.array(times, dtype=float) * 1e3
+    return (f"lockstep: {len(a)} control steps, wall time per step median {np.median(a[:, 0]):.2f} ms, "
+            f"95th percentile {np.percentile(a[:, 0], 95):.2f} ms (waiting for the decision: "
+            f"median {np.median(a[:, 1]):.2f} ms, 95th percentile {np.percentile(a[:, 1], 95):.2f} ms)")
 
 
 def runs_in_lockstep(setup: Setup) -> bool:

@@ -104,6 +104,17 @@ STAMPED = ("net_state", "metrics", "markers", "target_pose", "clock")
 CONTROLLER_TIMEOUT = metrics.CONTROLLER_TIMEOUT
 
 
+#: the start of the failure reason of a lockstep episode in which two publishers sent
+#: ClosingDecisions (the contract allows one decider): the capture node answers ABORTED
+TWO_CONTROLLERS = "two controllers decided"
+
+
 def is_controller_timeout(reason: str) -> bool:
     """Whether a failure reason says that the episode's controller did not answer."""
     return reason.startswith(CONTROLLER_TIMEOUT)
+
+
+def is_loop_failure(reason: str) -> bool:
+    """Whether a failure reason is a lockstep loop's (no answer in time, or two deciders):
+    the simulation's result says so, no verdict follows, the capture node answers ABORTED."""
+    return reason.startswith((CONTROLLER_TIMEOUT, TWO_CONTROLLERS))

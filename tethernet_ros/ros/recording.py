@@ -14,7 +14,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from .names import STAMPED, is_controller_timeout
+from .names import STAMPED, is_loop_failure
 
 
 def cdr_stamp(key: str, data: bytes) -> tuple[int, int] | None:
@@ -82,7 +82,7 @@ class Episode:
                     setattr(self, key, msg)
                     if self.result is not None and (
                             self.verdict is not None
-                            or is_controller_timeout(self.result.failure_reason)):
+                            or is_loop_failure(self.result.failure_reason)):
                         self.ended.set()      # (no verdict comes for a controller's failure)
 
     def behind(self) -> list[str]:

@@ -503,9 +503,9 @@ def capture_via_ros(design: Design, seed: int | None = None, noise_model: NoiseM
     ``controller`` as :class:`RosSuite` has them.
 
     Returns (result, bag path or None).  The result's ``trace`` holds the monitor's
-    CaptureMetrics series; ``steps`` (-1) and ``max_penetration`` (NaN) are not carried
-    by the messages.  Raises RosCaptureError (one line) if a node dies, the service
-    refuses the request, or the episode times out.
+    CaptureMetrics series; every other field is the library's, bit for bit.  Raises
+    RosCaptureError (one line) if a node dies, the service refuses the request, or the
+    episode times out.
     """
     suite = RosSuite(config=config, noise_model=noise_model, bag_dir=bag_dir, params=params,
                      lockstep=lockstep, controller=controller)

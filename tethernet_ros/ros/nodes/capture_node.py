@@ -47,7 +47,7 @@ from .. import conversions as conv
 from ..loop import EXTERNAL
 from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, LOCKSTEP_PUBLISHERS, \
     LOCKSTEP_SUBSCRIBERS, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
-    STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, is_controller_timeout, recorder_name
+    STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, is_loop_failure, recorder_name
 from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
     topic
 from ..qos import LATCHED_DEPTH, command_qos, state_qos
@@ -64,6 +64,8 @@ STATE_TOPICS = ("net_state", "target_pose", "markers", "metrics", "clock", "true
                 "sensed_target_twist", "sensed_net_point")
 SHUTDOWN = "the capture node shut down during the episode (SIGINT or SIGTERM)"
 CANCELED_TEXT = "canceled by the client"
+#: s (wall) of quiet the bag of a lockstep episode whose loop failed waits for
+LOOP_DRAIN_S = 0.25
 #: s (wall) between two feedback messages of a goal
 FEEDBACK_PERIOD = 0.1
 #: threads of the node's executor: the service, a goal's execution, the action server's
@@ -315,8 +317,14 @@ class CaptureNode(Node):
                         f"{stall_to:g} s after {ep.n_states} states (sim_node died or hung)")
             if now - ep.started > total_to:
                 return f"timed out: the episode took longer than episode_timeout = {total_to:g} s"
-        if ep.result is not None and is_controller_timeout(ep.result.failure_reason):
-            return ep.result.failure_reason          # a lockstep episode's controller failed
+        if ep.result is not None and is_loop_failure(ep.result.failure_reason):
+            # a lockstep episode's loop failed: the messages on their way (a second
+            # decider's decisions) still reach the bag, for `tethernet replay` to show
+            deadline = time.monotonic() + 2.0
+            while ep.quiet_for() < LOOP_DRAIN_S and time.monotonic() < deadline \
+                    and self.context.ok():
+                time.sleep(0.01)
+            return ep.result.failure_reason
         # the last state's markers, pose, clock and metrics may still be on their way
         drain = float(param(self, "drain_time"))
         limit = max(10 * drain, 2.0)

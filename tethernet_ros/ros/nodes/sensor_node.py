@@ -131,6 +131,9 @@ class SensorNode(Node):
         out = conv.measurement_msg(sensed, msg.step, sim_time, msg.episode_id,
                                    msg.closing_displacement, self.frame_id)
         out.header.stamp = msg.header.stamp           # exactly the truth's stamp
+        # the measurement first: the controller, and so the simulation, waits for it; the
+        # standard messages are for viewers and the bag (docs/ros.md, what lockstep costs)
+        self.pub_measurement.publish(out)
         if sensed is not None:
             pose, twist, point = conv.sensed_msgs(sensed, sim_time, self.setup.config.sensing,
                                                   self.frame_id)
@@ -139,7 +142,6 @@ class SensorNode(Node):
             self.pub_pose.publish(pose)
             self.pub_twist.publish(twist)
             self.pub_point.publish(point)
-        self.pub_measurement.publish(out)
 
 
 def main(args=None) -> int:

@@ -41,9 +41,10 @@ from rclpy.node import Node
 
 from ...core.episode import CaptureSimulation, episode_result, run_simulation, steps_every
 from .. import conversions as conv
-from ..loop import ControllerTimeout, episode_scenario, kernel_config, runs_in_lockstep, truth_of
+from ..loop import ControllerConflict, ControllerTimeout, LoopFailure, episode_scenario, \
+    kernel_config, runs_in_lockstep, step_time_summary, truth_of
 from ..markers import MarkerBuilder
-from ..names import CONTROLLER_TIMEOUT
+from ..names import CONTROLLER_TIMEOUT, TWO_CONTROLLERS
 from ..parameters import declare, param, topic
 from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
 from ..qos import command_qos, latched_qos, state_qos
@@ -88,6 +89,14 @@ class SimNode(Node):
         self._awaiting: tuple[str, int] | None = None
         self._answer = None
         self._answered = threading.Event()
+        # the lockstep episode whose decisions are heard, the controllers they name and
+        # the control steps decided (one decider is allowed: a second name, or a step
+        # decided twice, is a second node answering; rclpy's message info does not
+        # carry the publisher)
+        self._loop_episode: str | None = None
+        self._deciders: set[str] = set()
+        self._decided: set[int] = set()
+        self._twice: int | None = None       # the first step decided twice
         self._setup = None
         self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
@@ -152,9 +161,21 @@ class SimNode(Node):
                 self._running[1].set()
 
     def on_decision(self, msg) -> None:
-        """The controller's ClosingDecision: the answer if it is the one awaited."""
+        """The controller's ClosingDecision: the answer if it is the one awaited.  A
+        decision of another episode (a stale one) is ignored; one of this episode from a
+        second decider ends the episode (:class:`..loop.ControllerConflict`)."""
         with self._lock:
-            if self._awaiting == (msg.episode_id, int(msg.step)) and not self._answered.is_set():
+            if msg.episode_id != self._loop_episode:
+                return
+            step = int(msg.step)
+            self._deciders.add(msg.controller)
+            if step in self._decided and self._twice is None:
+                self._twice = step
+            self._decided.add(step)
+            if len(self._deciders) > 1 or self._twice is not None:
+                self._answered.set()         # the episode thread reports the conflict
+                return
+            if self._awaiting == (msg.episode_id, step) and not self._answered.is_set():
                 self._answer = msg
                 self._answered.set()
 
@@ -238,11 +259,12 @@ class SimNode(Node):
 
         should_stop = lambda: stop.is_set() or self.stopping()  # noqa: E731
         controller = None
+        loop_times: list[tuple[float, float]] = []
         if lockstep:
             controller = self._exchange(setup.episode_id, scenario.close_threshold,
                                         float(self._p("decision_timeout")),
                                         float(self._p("match_timeout")), should_stop,
-                                        publish_clock)
+                                        publish_clock, loop_times)
         sim = PublishingSimulation(scenario, every, publish, should_stop, controller)
         n_subs = int(self._p("min_state_subscribers"))
         timeout = float(self._p("match_timeout"))
@@ -266,7 +288,9 @@ class SimNode(Node):
             sim.publish()                                   # the initial state
             try:
                 result = run_simulation(sim, record_trace=False)
-            except ControllerTimeout as exc:
+                if lockstep:
+                    self._check_deciders()   # a second one heard after the last step
+            except LoopFailure as exc:
                 result = episode_result(sim, str(exc))
                 log.error(f"episode {setup.episode_id!r}: {exc}")
             sim.publish()                                   # the final state (if not yet)
@@ -287,15 +311,32 @@ class SimNode(Node):
         finally:
             with self._lock:
                 self._awaiting = None
+                self._loop_episode = None
+        if lockstep and loop_times:
+            log.info(f"episode {setup.episode_id!r}: {step_time_summary(loop_times)}")
         verdict = "success" if result.success else f"failure ({result.failure_reason})"
         log.info(f"episode {setup.episode_id!r} done: {verdict}, T = {result.completion_time:.3f} s, "
                  f"wall {result.wall_time:.2f} s")
 
+    def _check_deciders(self) -> None:
+        """Raise ControllerConflict if two publishers decided in this episode."""
+        with self._lock:
+            deciders, twice = sorted(self._deciders), self._twice
+        if len(deciders) > 1 or twice is not None:
+            who = (f"{len(deciders)} controllers ({', '.join(repr(c) for c in deciders)})"
+                   if len(deciders) > 1 else f"step {twice} decided twice (by {deciders[0]!r})")
+            raise ControllerConflict(
+                f"{TWO_CONTROLLERS}: {who} on {self.sub_decision.topic_name} in this "
+                "episode; the controller contract allows one decider (docs/ros.md): with "
+                "your own controller, start actuator_node with builtin_policy false")
+
     def _exchange(self, episode_id: str, closing_displacement: float, timeout: float,
-                  set_up_time: float, should_stop, publish_clock):
+                  set_up_time: float, should_stop, publish_clock, times: list):
         """The controller of a lockstep episode's simulation: at a control step, publish
-        /clock and the true measurement (through the outbox, after the states before it)
-        and wait for the ClosingDecision of that step (``timeout`` s); its ``close``.
+        /clock and the true measurement (from the episode thread, once the outbox has
+        published the states before it) and wait for the ClosingDecision of that step
+        (``timeout`` s); its ``close``.  ``times`` gets (s from the last control step's
+        decision to this one's, s of this step's wait for its decision), wall clock.
 
         Until the controller's first decision of the episode, the wait is ``set_up_time``
         s longer: the first measurement also waits for the loop's per-episode set-up,
@@ -305,8 +346,14 @@ class SimNode(Node):
         frame = self.frame_id
         topic_name = self.sub_decision.topic_name
         answered_once = [False]
+        last = [None]                        # monotonic time of the last decision heard
+        with self._lock:
+            self._loop_episode = episode_id
+            self._deciders, self._decided, self._twice = set(), set(), None
 
         def exchange(sim) -> bool:
+            self._check_deciders()
+            t_step = time.monotonic()
             step, sim_time = sim.step, sim.time
             msg = conv.measurement_msg(truth_of(sim), step, sim_time, episode_id,
                                        closing_displacement, frame)
@@ -319,7 +366,10 @@ class SimNode(Node):
                 publish_clock(step, sim_time)
                 self.pub_truth.publish(msg)
 
-            self._outbox.put(send)
+            # after the states before it, from this thread: no hand-over to the outbox
+            # thread on the loop's critical path (docs/ros.md, what lockstep costs)
+            self._outbox.drain()
+            send()
             wait = timeout if answered_once[0] else timeout + set_up_time
             deadline = time.monotonic() + wait
             while not self._answered.wait(0.05):
@@ -330,7 +380,12 @@ class SimNode(Node):
                         f"{CONTROLLER_TIMEOUT} within {wait:g} s: no ClosingDecision on "
                         f"{topic_name} for step {step} (t = {sim_time:.3f} s; is sensor_node "
                         "running, and a controller: actuator_node's built-in policy or yours?)")
+            self._check_deciders()
             answered_once[0] = True
+            now = time.monotonic()
+            if last[0] is not None:
+                times.append((now - last[0], now - t_step))
+            last[0] = now
             return bool(self._answer.close)
 
         return exchange
@@ -354,7 +409,7 @@ class SimNode(Node):
 
 
 def main(args=None) -> int:
-    return run_node(SimNode, args, threads=2)
+    return run_node(SimNode, args, threads=1)
 
 
 if __name__ == "__main__":
