@@ -16,7 +16,8 @@ import warnings
 from .errors import UserError
 
 #: command modules, in the order ``tethernet --help`` lists them
-COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize", "study")
+COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize", "cost",
+            "study")
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
