@@ -17,6 +17,12 @@ With ``sequential=True`` the samples are drawn in index order and a design's sam
 as soon as its feasibility at ``samples`` is decided (:mod:`optimizer.sequential`); the
 observation then rests on the samples drawn up to the decision, ``info["samples"]`` of
 ``info["samples_planned"]``.
+
+Fidelity (``fidelity``: phase -> name, :data:`~optimizer.settings.FIDELITY_PHASES`): the
+first ``seed_points`` evaluations (counted like ``first_evaluation``) are the "initial"
+phase, the rest the "iterations" phase; an evaluation runs on the problem at its phase's
+fidelity (``problem.at_fidelity(name)``; the problem itself at the reference), and
+``info["fidelity"]`` records which.
 """
 from __future__ import annotations
 
@@ -30,7 +36,7 @@ from .cases import P_SUCCESS, Case, get_case
 from .jsonio import json_clean
 from .observation import binomial_observation
 from .problem import DesignProblem
-from .settings import fresh_base_seed
+from .settings import REFERENCE_FIDELITY, fresh_base_seed
 
 __all__ = ["DesignEvaluator"]
 
@@ -43,12 +49,15 @@ class DesignEvaluator:
     restarted).  ``calls`` counts evaluations and ``last_result`` holds the latest
     estimate.  ``progress(done, total)`` is called per finished sample.  ``fresh``,
     ``first_evaluation``: fresh samples per evaluation (module docstring);
-    ``next_evaluation`` is the number of the next call's evaluation.
+    ``next_evaluation`` is the number of the next call's evaluation.  ``fidelity``,
+    ``seed_points``: the fidelity of each phase (module docstring; default: the
+    reference throughout).
     """
 
     def __init__(self, case: Case | str, problem: DesignProblem, samples: int, base_seed: int,
                  results_path=None, progress: Callable[[int, int], None] | None = None,
-                 sequential: bool = False, fresh: bool = False, first_evaluation: int = 1):
+                 sequential: bool = False, fresh: bool = False, first_evaluation: int = 1,
+                 fidelity: dict | None = None, seed_points: int = 0):
         self.case = get_case(case)
         self.problem = problem
         self.samples = int(samples)
@@ -60,13 +69,40 @@ class DesignEvaluator:
         self.next_evaluation = int(first_evaluation)
         self.calls = 0
         self.last_result = None
+        self.fidelity = dict(fidelity or {})
+        self.seed_points = int(seed_points)
+        self._at = {REFERENCE_FIDELITY: problem}
         self.cheap_constraint = self.case.cheap_constraint(problem.mass)
 
+    def phase_fidelity(self, phase: str) -> str:
+        """The fidelity of ``phase`` ("initial", "iterations", ...)."""
+        return self.fidelity.get(phase, REFERENCE_FIDELITY)
+
+    def next_fidelity(self) -> str:
+        """The fidelity of the next call's evaluation (by its phase)."""
+        phase = "initial" if self.next_evaluation <= self.seed_points else "iterations"
+        return self.phase_fidelity(phase)
+
+    def problem_at(self, fidelity: str) -> DesignProblem:
+        """The problem at ``fidelity`` (itself at the reference; ``problem.at_fidelity``
+        otherwise, made once)."""
+        if fidelity not in self._at:
+            at = getattr(self.problem, "at_fidelity", None)
+            if at is None:
+                raise ValueError(f"fidelity {fidelity!r}: the problem has no fidelities "
+                                 f"but {REFERENCE_FIDELITY!r}")
+            self._at[fidelity] = at(fidelity)
+        return self._at[fidelity]
+
     def estimate(self, x, label: str = "", stop=None):
-        """The problem's reliability estimate of ``x`` on the optimisation samples."""
-        return self.problem.evaluate(np.asarray(x, dtype=float), self.samples, self.base_seed,
-                                     stop=stop, results_path=self.results_path, label=label,
-                                     progress=self.progress)
+        """The problem's reliability estimate of ``x`` on the optimisation samples, at the
+        fidelity of the "iterations" phase (so that a design evaluated beside the run's,
+        e.g. the reference design of the results table, is taken as the run's iterations
+        took theirs)."""
+        problem = self.problem_at(self.phase_fidelity("iterations"))
+        return problem.evaluate(np.asarray(x, dtype=float), self.samples, self.base_seed,
+                                stop=stop, results_path=self.results_path, label=label,
+                                progress=self.progress)
 
     def __call__(self, x):
         x = np.asarray(x, dtype=float)
@@ -76,12 +112,12 @@ class DesignEvaluator:
                              f"m_a <= {self.case.mass_limit:g} kg and must not be simulated")
         t0 = time.perf_counter()
         rule = self.case.sequential_rule(self.samples) if self.sequential else None
-        if self.fresh:
-            base = fresh_base_seed(self.base_seed, self.next_evaluation)
-            r = self.problem.evaluate(x, self.samples, base, stop=rule,
-                                      results_path=self.results_path, progress=self.progress)
-        else:
-            r = self.estimate(x, stop=rule)
+        fidelity = self.next_fidelity()
+        problem = self.problem_at(fidelity)
+        base = (fresh_base_seed(self.base_seed, self.next_evaluation) if self.fresh
+                else self.base_seed)
+        r = problem.evaluate(x, self.samples, base, stop=rule, results_path=self.results_path,
+                             label="", progress=self.progress)
         self.next_evaluation += 1
         self.calls += 1
         self.last_result = r
@@ -96,7 +132,7 @@ class DesignEvaluator:
             "mean_completion_time_success": r.mean_completion_time_success,
             "failures_by_reason": dict(r.failures_by_reason), "key": r.key,
             "reused_samples": r.reused, "wall_time": time.perf_counter() - t0,
-            "samples_planned": self.samples,
+            "samples_planned": self.samples, "fidelity": fidelity,
         }
         if self.fresh:
             info["base_seed"] = r.base_seed

@@ -30,6 +30,9 @@ def finish_run(case, opt, stopped, paths, settings, problem, evaluator, emit) ->
             reference design on the optimisation samples);
         emit: ``emit(event)``, the run's progress events.
     """
+    # racing and validation run on the problem as given, the reference fidelity, whatever
+    # the search ran at (RunSettings refuses another fidelity for them); their samples are
+    # of seeds and files of their own, so no optimisation sample is reused by them
     validator = Validator(case, problem, settings, paths["validation"], emit)
     choice = choose_design(case, opt, stopped, settings, validator,
                            _racer(case, opt, problem, settings, paths["racing"], emit))
@@ -227,6 +230,7 @@ def _summary(case, opt, stopped, paths, settings, problem, choice: Choice, rows)
         "validation_stop": bool(settings.validation_stop),
         "fresh_samples": bool(settings.fresh_samples),
         "selection_level": settings.selection_level,
+        "fidelity": dict(getattr(settings, "fidelity", {}) or {}),
         "racing": (choice.race.to_dict(lambda o: _index(opt.history, o))
                    if choice.race is not None else None),
     }

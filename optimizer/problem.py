@@ -93,3 +93,9 @@ class DesignProblem(Protocol):
     # the problem's evaluations are the same bit for bit elsewhere (CPU features, library
     # versions); a run directory records them beside the optimiser's own
     # (:func:`optimizer.run.machine_record`)
+    # optional: ``fidelities: tuple[str, ...]``, the names of the fidelities besides
+    # "reference" (the problem as given) that the problem evaluates at, with
+    # ``at_fidelity(name) -> DesignProblem``, the same problem evaluated at that fidelity
+    # (its estimates' ``key`` must differ from the reference's, so that a results file
+    # never mixes them); the run's ``fidelity`` setting chooses one per phase
+    # (:mod:`optimizer.settings`)

@@ -44,10 +44,15 @@ def _fmt(v) -> str:
 
 def write_history(path: str | Path, history, variable_names: Sequence[str]) -> None:
     """``history.csv``: one row per evaluated design (variables, objective, P*_s, the
-    samples it rests on, feasibility, m_a, mean T, acquisition diagnostics, wall time)."""
+    samples it rests on, feasibility, m_a, mean T, acquisition diagnostics, wall time).
+    When an evaluation ran at another fidelity than the reference (``info["fidelity"]``,
+    docs/optimizer.md, fidelities), a ``fidelity`` column before the wall time says each
+    row's; a run wholly at the reference writes the columns it always did."""
+    fidelities = [o.info.get("fidelity", "reference") for o in history]
+    mixed = any(f != "reference" for f in fidelities)
     head = (["evaluation", "phase", *variable_names, "objective", "p_success", "successes",
              "samples", "feasible", "mass", "mean_completion_time", "probability_feasible",
-             "eiplus_tries", "wall_time"])
+             "eiplus_tries", *(["fidelity"] if mixed else []), "wall_time"])
     lines = [",".join(head)]
     for i, o in enumerate(history, 1):
         a, info = o.acquisition, o.info
@@ -55,7 +60,8 @@ def write_history(path: str | Path, history, variable_names: Sequence[str]) -> N
                 f"{o.constraints[P_SUCCESS]:.6g}", info.get("successes", ""),
                 info.get("samples", ""), int(o.feasible), _fmt(info.get("mass")),
                 _fmt(info.get("mean_completion_time")), _fmt(a.get("probability_feasible")),
-                a.get("eiplus_tries", ""), _fmt(info.get("wall_time"))]
+                a.get("eiplus_tries", ""), *([fidelities[i - 1]] if mixed else []),
+                _fmt(info.get("wall_time"))]
         lines.append(",".join(str(v) for v in vals))
     atomic_write_text(path, "\n".join(lines) + "\n")
 
@@ -128,6 +134,7 @@ def results_markdown(summary: dict) -> str:
             _f(pub["p_success_validated"]), "", ""]) + " |")
     out += ["", "Design variables:", ""] + _variables_table(rows, summary["variables"])
     out += _racing_lines(summary)
+    out += _fidelity_lines(summary)
     out += ["", f"Chosen by: {summary['selection_rule']}."]
     if rows[0]["evaluation"]:
         out.append(f"Best design = evaluation {rows[0]['evaluation']}.")
@@ -186,6 +193,21 @@ def _racing_lines(summary: dict) -> list[str]:
                    f"[{_f(e['wilson'][0])}, {_f(e['wilson'][1])}] | {e['samples']} | "
                    f"{e['status']} |")
     return out
+
+
+def _fidelity_lines(summary: dict) -> list[str]:
+    """Which phases ran at another fidelity than the reference (docs/optimizer.md,
+    fidelities); nothing for a run wholly at the reference."""
+    fid = summary.get("fidelity") or {}
+    other = {p: f for p, f in fid.items() if f != "reference"}
+    if not other:
+        return []
+    names = {"initial": "seed points", "iterations": "iterations"}
+    said = ", ".join(f"{names.get(p, p)} at {f}" for p, f in other.items())
+    return ["", f"Fidelity: {said}; so the optimisation P*_s and mean T above are "
+                f"{'/'.join(sorted(set(other.values())))}-fidelity estimates that only "
+                "steered the search. Racing and validation ran at the reference fidelity: "
+                "the validated columns are reference-fidelity results."]
 
 
 def _samples_text(summary: dict) -> str:

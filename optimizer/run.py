@@ -29,6 +29,13 @@ sample of every design.  The summary counts the samples the observations rest on
 validations' samples (``episodes_racing``, ``episodes_validation``; all:
 ``episodes_total``).
 
+Fidelity (``fidelity``, :mod:`optimizer.settings`): the seed points and the iterations may
+run at another fidelity of the problem (``problem.at_fidelity``; for the simulator the 2 ms
+implicit step, docs/optimizer.md); racing and validation always run at the reference, on
+samples of their own.  Each observation's ``info["fidelity"]`` (checkpoint.json, and a
+``fidelity`` column of history.csv when not all are at the reference) records its
+fidelity; run.json records the setting, and a resume under another one is refused.
+
 Seeds: the optimiser's own randomness (seed design, candidates, GP restarts) comes from
 ``seed``; the optimisation samples are samples ``0..samples-1`` of Monte Carlo base seed
 ``sample_seed`` (default 1) for every design (common random numbers), or with
@@ -66,7 +73,7 @@ from .problem import DesignProblem
 from .report import write_history
 from .sequential import allowed_failures
 from .settings import (MUTABLE, RECORDED_DEFAULTS, RUN_FORMAT, RunError, RunSettings,
-                       SettingError)
+                       SettingError, check_problem_fidelity)
 
 __all__ = ["run_optimization", "RunError", "RunSettings", "default_run_dir",
            "read_run_settings", "RUN_FILES"]
@@ -159,7 +166,9 @@ def run_optimization(case: str | Case, problem: DesignProblem,
                                 results_path=run.paths["samples"], progress=tracker.on_sample,
                                 sequential=run.settings.sequential,
                                 fresh=run.settings.fresh_samples,
-                                first_evaluation=run.previous + 1)
+                                first_evaluation=run.previous + 1,
+                                fidelity=dict(run.settings.fidelity),
+                                seed_points=run.settings.seed_points)
     tracker.start(problem.describe())
     res = minimize(evaluator, problem.bounds, case.constraints,
                    cheap_constraint=evaluator.cheap_constraint,
@@ -229,6 +238,7 @@ def open_run(case: Case, problem: DesignProblem, settings: RunSettings,
                 if resume and paths["settings"].exists() else None)
     settings = settings.resolved(recorded, case)
     _check_validation_size(case, settings)
+    check_problem_fidelity(settings, problem)
     record = json.loads(json.dumps(json_clean(settings.record(case.name, problem.settings()))))
     here = machine_record(problem)
     notice = ""

@@ -26,7 +26,9 @@ from dataclasses import dataclass, field
 from .cases import VALIDATION_RULES
 
 __all__ = ["RunError", "SettingError", "RunSettings", "MUTABLE", "NEW_RUN_DEFAULTS", "SELECTION_LEVELS",
-           "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION", "SEED_LIMIT", "fresh_base_seed"]
+           "RECORDED_DEFAULTS", "RUN_FORMAT", "RUN_VERSION", "SEED_LIMIT", "fresh_base_seed",
+           "FIDELITY_PHASES", "EXPLORING_PHASES", "REFERENCE_FIDELITY", "problem_fidelities",
+           "check_problem_fidelity"]
 
 RUN_FORMAT = "tethernet_ros.optimizer.run"
 RUN_VERSION = 1
@@ -59,11 +61,21 @@ NEW_RUN_DEFAULTS = {
 #: passes half the time ("validation", :func:`optimizer.sequential.pass_level`: 0.9884
 #: for 1000 samples at 98 % by the Wilson rule)
 SELECTION_LEVELS = ("requirement", "validation")
+#: the phases of a run that ``fidelity`` maps to a fidelity: the space-filling seed points
+#: ("initial", the optimiser's phase of that name), the model-based iterations, the
+#: racing and the validations
+FIDELITY_PHASES = ("initial", "iterations", "racing", "validation")
+#: the phases that may run at another fidelity than the reference: their estimates only
+#: steer the search; racing and validation decide what a run claims, at the reference
+EXPLORING_PHASES = ("initial", "iterations")
+#: the problem as given (every problem has it; others come from ``problem.fidelities``)
+REFERENCE_FIDELITY = "reference"
 #: the value of a setting that a run directory of an older version does not record
 RECORDED_DEFAULTS = {"sequential": False, "validation_candidates": 1,
                      "validation_rule": "estimate",
                      "validation_stop": False, "racing_candidates": 0,
-                     "fresh_samples": False, "shared_luck": False}
+                     "fresh_samples": False, "shared_luck": False,
+                     "fidelity": {p: REFERENCE_FIDELITY for p in FIDELITY_PHASES}}
 #: seeds are below this: the base seeds of fresh samples lie above it
 #: (:func:`fresh_base_seed`)
 SEED_LIMIT = 1_000_000
@@ -107,7 +119,9 @@ class SettingError(RunError):
         def flag(name: str) -> str:
             return "--" + name.replace("_", "-")
 
-        requirement = re.sub(rf"\b({names})\b", lambda m: flag(m.group(0)), self.requirement)
+        # (a quoted word, e.g. the phase 'iterations' of fidelity, is not a setting)
+        requirement = re.sub(rf"(?<!')\b({names})\b(?!')", lambda m: flag(m.group(0)),
+                             self.requirement)
         return f"{flag(self.field)} {self.value}: must {requirement}"
 
 
@@ -163,6 +177,14 @@ class RunSettings:
         optimizer_options: further :class:`~optimizer.bayesopt.ConstrainedBayesOpt`
             settings (not ``n_initial``, ``n_iterations``, ``seed``, ``cheap_constraint``);
             kept as a read-only mapping.
+        fidelity: phase of :data:`FIDELITY_PHASES` -> the fidelity its evaluations run
+            at: :data:`REFERENCE_FIDELITY` (the problem as given; the default of every
+            phase) or a name of ``problem.fidelities`` (the simulator's: "exploration",
+            the implicit step at 2 ms, tethernet_ros/core/fidelity.py), checked against
+            the problem when the run opens.  Only the :data:`EXPLORING_PHASES` ("initial":
+            the seed points, "iterations") may leave the reference; "racing" and
+            "validation" must stay at it (every claim a run reports is a reference-fidelity
+            claim; docs/optimizer.md).  Kept as a read-only mapping of every phase.
     """
 
     iterations: int = 200
@@ -186,6 +208,7 @@ class RunSettings:
     racing_budget: int = 2000
     racing_seed: int = 2
     selection_level: str = "requirement"
+    fidelity: Mapping = field(default_factory=dict)
 
     def __post_init__(self):
         for name, (low, high) in _INT_RANGE.items():
@@ -231,6 +254,7 @@ class RunSettings:
             raise SettingError("optimizer_options", dict(options),
                                f"not set {bad} (they are settings of the run)")
         object.__setattr__(self, "optimizer_options", types.MappingProxyType(dict(options)))
+        object.__setattr__(self, "fidelity", types.MappingProxyType(_fidelity(self.fidelity)))
 
     def replace(self, **changes) -> RunSettings:
         """A copy with ``changes`` (checked again)."""
@@ -272,8 +296,62 @@ class RunSettings:
                 "fresh_samples": self.fresh_samples, "shared_luck": self.shared_luck,
                 "racing_candidates": self.racing_candidates,
                 "racing_round": self.racing_round, "racing_budget": self.racing_budget,
-                "racing_seed": self.racing_seed, "selection_level": self.selection_level}
+                "racing_seed": self.racing_seed, "selection_level": self.selection_level,
+                "fidelity": dict(self.fidelity)}
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
         return tuple(f.name for f in dataclasses.fields(cls))
+
+
+def _fidelity(value) -> dict:
+    """The ``fidelity`` setting checked and made whole: every phase of
+    :data:`FIDELITY_PHASES`, in that order, the reference where ``value`` names none."""
+    phases = ", ".join(repr(p) for p in FIDELITY_PHASES)
+    if not isinstance(value, Mapping):
+        raise SettingError("fidelity", value, f"be a mapping of phases ({phases}) to "
+                           "names of fidelities")
+    unknown = sorted(str(k) for k in value if k not in FIDELITY_PHASES)
+    if unknown:
+        raise SettingError("fidelity", dict(value), f"name only the phases {phases} "
+                           f"(unknown: {', '.join(repr(k) for k in unknown)})")
+    whole = {p: value.get(p, REFERENCE_FIDELITY) for p in FIDELITY_PHASES}
+    bad = [p for p, name in whole.items() if not isinstance(name, str) or not name]
+    if bad:
+        raise SettingError("fidelity", dict(value), "map each phase to the name of one of "
+                           f"its fidelities (a non-empty string; not for {', '.join(repr(p) for p in bad)})")
+    claims = [p for p in FIDELITY_PHASES
+              if p not in EXPLORING_PHASES and whole[p] != REFERENCE_FIDELITY]
+    if claims:
+        raise SettingError("fidelity", dict(value),
+                           f"keep {' and '.join(repr(p) for p in claims)} at "
+                           f"{REFERENCE_FIDELITY!r}: racing and validation decide what a "
+                           "run claims, and every claim stands at the reference "
+                           "(docs/optimizer.md, fidelities)")
+    return whole
+
+
+def problem_fidelities(problem) -> tuple[str, ...]:
+    """The fidelities ``problem`` evaluates at: :data:`REFERENCE_FIDELITY` and those of
+    its optional ``fidelities`` attribute (a problem with others has ``at_fidelity(name)
+    -> DesignProblem``, :class:`optimizer.problem.DesignProblem`)."""
+    names = tuple(getattr(problem, "fidelities", ()) or ())
+    return (REFERENCE_FIDELITY, *[n for n in names if n != REFERENCE_FIDELITY])
+
+
+def check_problem_fidelity(settings: RunSettings, problem) -> None:
+    """SettingError when ``settings.fidelity`` names a fidelity that ``problem`` lacks
+    (naming the phase and the problem's fidelities); RunError when ``problem.at_fidelity``
+    refuses it (a ValueError, e.g. a configuration it cannot be applied to)."""
+    allowed = problem_fidelities(problem)
+    for phase, name in settings.fidelity.items():
+        if name not in allowed:
+            raise SettingError("fidelity", dict(settings.fidelity),
+                               f"map phase {phase!r} to one of the problem's fidelities: "
+                               f"{', '.join(repr(a) for a in allowed)}")
+        if name != REFERENCE_FIDELITY:
+            try:                         # before the run starts, not at its first such design
+                problem.at_fidelity(name)
+            except ValueError as exc:
+                raise RunError(f"fidelity {name!r} of phase {phase!r} does not apply to "
+                               f"this problem: {exc}") from None

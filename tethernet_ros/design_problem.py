@@ -18,6 +18,7 @@ from optimizer.run import run_optimization
 
 from . import machine, montecarlo
 from .core.config import SimConfig
+from .core.fidelity import FIDELITIES, REFERENCE, at_fidelity
 from .core.design import (DESIGN_BOUNDS, PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
                           system_mass)
 from .core.noise import NoiseModel
@@ -33,11 +34,15 @@ class SimulatorProblem:
     """
 
     variable_names: Sequence[str] = VARIABLE_NAMES
+    #: the fidelities it evaluates at (core/fidelity.py), for the run's ``fidelity``
+    fidelities: tuple[str, ...] = FIDELITIES
 
     def __init__(self, backend: montecarlo.EpisodeBackend, config: SimConfig | None = None,
                  noise_model: NoiseModel | None = None):
         self.backend = backend
         self.config = config or SimConfig()
+        #: the fidelity of ``config`` (reference: as given)
+        self.fidelity = REFERENCE
         self.noise_model = noise_model or NoiseModel()
         self.bounds = [tuple(DESIGN_BOUNDS[n]) for n in VARIABLE_NAMES]
         self.horizon = float(self.config.horizon)
@@ -57,6 +62,18 @@ class SimulatorProblem:
         return montecarlo.evaluate(Design.from_vector(x), n_samples, base_seed, self.noise_model,
                                    self.config, self.backend, results_path=results_path,
                                    label=label, progress=prog, stop=stop)
+
+    def at_fidelity(self, name: str) -> SimulatorProblem:
+        """The same problem with every episode at fidelity ``name`` (core.fidelity.
+        at_fidelity of its config: exploration sets the implicit step to 2 ms, so its
+        samples' run keys differ from the reference's); itself for the reference."""
+        if name == self.fidelity:
+            return self
+        if self.fidelity != REFERENCE:
+            raise ValueError(f"fidelity {name!r}: this problem is already at {self.fidelity!r}")
+        other = SimulatorProblem(self.backend, at_fidelity(self.config, name), self.noise_model)
+        other.fidelity = name
+        return other
 
     def design_dict(self, x) -> dict:
         return Design.from_vector(x).to_dict()

@@ -5,10 +5,10 @@ import time
 from pathlib import Path
 
 from ..core.episode import run_episode
-from .common import (add_config_argument, add_design_argument, add_noise_arguments,
-                     add_ros_arguments, check_ros_arguments, config_from_args,
-                     controller_config, design_from_args, node_params_from_args,
-                     noise_model_from_args, print_json)
+from .common import (add_config_argument, add_design_argument, add_fidelity_argument,
+                     add_noise_arguments, add_ros_arguments, check_ros_arguments,
+                     config_from_args, controller_config, design_from_args, fidelity_config,
+                     node_params_from_args, noise_model_from_args, print_json)
 
 NAME = "capture"
 HELP = "simulate one capture of a design (nominal or one noise sample)"
@@ -22,6 +22,7 @@ def add_arguments(p):
     g.add_argument("--nominal", action="store_true", help="no noise (the default)")
     add_noise_arguments(p)
     add_config_argument(p)
+    add_fidelity_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--via", choices=("library", "ros"), default="library",
                    help="run in-process (default) or through the ROS 2 node suite")
@@ -43,8 +44,8 @@ def run(args) -> int:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
     check_ros_arguments(args)
     sample = None if args.seed is None else model.sample(args.seed)
-    config = controller_config(args, config_from_args(
-        args, **({"state_rate": args.state_rate} if args.state_rate else {})))
+    config = fidelity_config(args, controller_config(args, config_from_args(
+        args, **({"state_rate": args.state_rate} if args.state_rate else {}))))
     t0 = time.perf_counter()
     bag_path = None
     if args.via == "ros":
@@ -62,7 +63,8 @@ def run(args) -> int:
     seed_label = "nominal" if args.seed is None else f"seed{args.seed}"
     if args.json:
         d = result.to_dict()
-        d.update(design=design.to_dict(), design_name=label, via=args.via, bag_path=bag_path)
+        d.update(design=design.to_dict(), design_name=label, via=args.via, bag_path=bag_path,
+                 fidelity=args.fidelity)
         print_json(d)
         return 0
     png = Path(args.png) if args.png else Path("out") / f"capture_{label}_{seed_label}.png"
@@ -73,6 +75,11 @@ def run(args) -> int:
     else:
         png = None
     print(summary_text(label, seed_label, result, wall, args.via, bag_path, png))
+    if args.fidelity != "reference":
+        from ..core.fidelity import fidelity_text
+
+        print(f"  fidelity           {fidelity_text(args.fidelity)}: not a reference-"
+              "fidelity result (docs/studies/step.md)")
     return 0
 
 

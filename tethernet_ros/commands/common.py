@@ -98,6 +98,29 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="sensing latency in [0, 5] s (default 0)")
 
 
+def add_fidelity_argument(p: argparse.ArgumentParser) -> None:
+    """--fidelity: simulate at the reference fidelity (the configuration as given, the
+    default) or at exploration's (the implicit step at 2 ms; core/fidelity.py)."""
+    from ..core.fidelity import FIDELITIES, REFERENCE
+
+    p.add_argument("--fidelity", choices=FIDELITIES, default=REFERENCE,
+                   help="reference: the configuration as given (default); exploration: the "
+                        "same with the implicit step at 2 ms, about twice as fast, whose "
+                        "statistics matched the reference's in docs/studies/step.md but "
+                        "whose energy invariant does not hold (not a reference-fidelity "
+                        "result; needs the default 1 ms implicit step in --config)")
+
+
+def fidelity_config(args, config):
+    """``config`` at the --fidelity asked for (core.fidelity.at_fidelity: reference
+    returns it unchanged); FidelityError naming --fidelity and the field it conflicts
+    with."""
+    from ..core.fidelity import REFERENCE, at_fidelity
+
+    return at_fidelity(config, getattr(args, "fidelity", REFERENCE) or REFERENCE,
+                       field="--fidelity")
+
+
 def tumble_axis(text: str):
     """A --tumble-axis value: a name of TUMBLE_AXES, or three numbers 'x,y,z'."""
     if text in TUMBLE_AXES:

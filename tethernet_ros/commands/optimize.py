@@ -17,7 +17,10 @@ import sys
 import time
 from pathlib import Path
 
-from optimizer.settings import NEW_RUN_DEFAULTS, SELECTION_LEVELS, RunSettings, SettingError
+from optimizer.settings import (EXPLORING_PHASES, NEW_RUN_DEFAULTS, SELECTION_LEVELS,
+                                RunSettings, SettingError)
+
+from ..core.fidelity import FIDELITIES, REFERENCE
 
 from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
                      add_ros_arguments, backend_from_args, check_backend_arguments,
@@ -84,6 +87,14 @@ def add_arguments(p):
                         "'validation' (the P*_s at which the validation passes half the time, "
                         f"0.9884 for 1000 samples by the Wilson rule; default "
                         f"{d.selection_level}; may change on --resume)")
+    p.add_argument("--explore-fidelity", choices=FIDELITIES, default=REFERENCE,
+                   help="the fidelity of the seed points and the iterations: reference (the "
+                        "configuration as given, the default) or exploration (the implicit "
+                        "step at 2 ms, about twice as fast, whose statistics matched the "
+                        "reference's in docs/studies/step.md).  Racing and validation always "
+                        "run at the reference, so every result the run reports is a "
+                        "reference-fidelity one.  Recorded in run.json; --resume needs the "
+                        "same")
     p.add_argument("--fresh-samples", action=argparse.BooleanOptionalAction, default=None,
                    help="give every design samples of its own instead of the same samples "
                         "for all (common random numbers), so that the feasibility model's "
@@ -175,7 +186,9 @@ def run_settings(args) -> RunSettings:
         shared_luck=args.shared_luck,
         racing_candidates=args.racing_candidates, racing_round=args.racing_round,
         racing_budget=args.racing_budget, racing_seed=args.racing_seed,
-        selection_level=args.selection_level)
+        selection_level=args.selection_level,
+        fidelity=({p: args.explore_fidelity for p in EXPLORING_PHASES}
+                  if args.explore_fidelity != REFERENCE else {}))
 
 
 class OptimizeProgress:
@@ -286,6 +299,10 @@ def run(args) -> int:
     over = {k: v for k, v in (("settle_time", args.settle_time), ("horizon", args.horizon))
             if v is not None}
     config = controller_config(args, config_from_args(args, **over))
+    if args.explore_fidelity != REFERENCE:
+        from ..core.fidelity import at_fidelity
+
+        at_fidelity(config, args.explore_fidelity, field="--explore-fidelity")  # its error
     run_dir = Path(args.run_dir) if args.run_dir else default_run_dir(case)
     if args.resume and (run_dir / "run.json").exists() and not (run_dir / "checkpoint.json").exists():
         print(f"tethernet optimize: {run_dir} was stopped before its first design finished; "

@@ -14,10 +14,12 @@ import time
 from pathlib import Path
 
 from ..core.design import REFERENCE_DESIGNS
-from .common import (add_backend_arguments, add_config_argument, add_noise_arguments,
-                     add_ros_arguments, backend_from_args, check_backend_arguments,
-                     check_ros_arguments, config_from_args, controller_config,
-                     controller_label, noise_model_from_args, print_json, read_design_file)
+from ..core.fidelity import REFERENCE, fidelity_text
+from .common import (add_backend_arguments, add_config_argument, add_fidelity_argument,
+                     add_noise_arguments, add_ros_arguments, backend_from_args,
+                     check_backend_arguments, check_ros_arguments, config_from_args,
+                     controller_config, controller_label, fidelity_config,
+                     noise_model_from_args, print_json, read_design_file)
 
 NAME = "validate"
 HELP = "Monte Carlo validation of a design: P*_s with a 95 % interval, mean T, failures"
@@ -30,6 +32,7 @@ def add_arguments(p):
                         "file with keys m_c, L_n, r_n, d_L, V_e, d_c")
     g.add_argument("--reference", action="store_true", help="all four reference designs")
     add_run_arguments(p, default_samples=1000)
+    add_fidelity_argument(p)
     p.add_argument("--json", action="store_true", help="print JSON (one object, or a list with --reference)")
     p.add_argument("--per-sample", action="store_true", help="with --json: include every sample's result")
 
@@ -115,7 +118,9 @@ def run(args) -> int:
 
     check_run_arguments(args)
     model = noise_model_from_args(args)
-    config = run_config(args)
+    # --fidelity exploration: another config, so its samples have run keys of their own
+    # and are never mixed with the reference's in a results file
+    config = fidelity_config(args, run_config(args))
     if args.reference:
         labels = list(REFERENCE_DESIGNS)
         designs = [REFERENCE_DESIGNS[k] for k in labels]
@@ -159,6 +164,7 @@ def run(args) -> int:
         for r, path in results:
             d = r.to_dict(with_samples=args.per_sample)
             d["results_file"] = str(path)
+            d["fidelity"] = args.fidelity
             if spun:
                 d["by_attitude"] = by_attitude(r, design_by_label[r.label], config, model)
                 d["by_attitude_at_closing"] = by_attitude(r, design_by_label[r.label], config,
@@ -177,6 +183,9 @@ def run(args) -> int:
           f"{backend.describe()}, {wall:.1f} s wall"
           + (f" ({reused} samples read back from the results file)" if reused else ""))
     print("P*_s interval: Wilson 95 %; mean T over all samples (closing never triggered: T = horizon)")
+    if args.fidelity != REFERENCE:
+        print(f"fidelity {fidelity_text(args.fidelity)}: not a reference-fidelity result "
+              "(docs/studies/step.md; docs/model.md, fidelities)")
     print("results file" + ("s" if len(files) > 1 else "") + ": " + ", ".join(files))
     for f in files:
         line = ResultsFile(f).machine_summary({r.key for r, p in results if str(p) == f})

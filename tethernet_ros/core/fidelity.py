@@ -1,0 +1,88 @@
+"""Fidelities: the named ways of simulating an episode of a configuration, and the one
+home of what each changes.
+
+``reference``: the configuration as given, unchanged bit for bit (every published number,
+every validation).  ``exploration``: the same configuration with the implicit method's
+step at 2 ms instead of 1 ms, about twice as fast; docs/studies/step.md found its
+statistics within every 95 % interval of the reference (P*_s, 200 samples per reference
+design) and mean T within 0.03 %, but the method's energy invariant does not hold at 2 ms,
+so it is not the default and no claim rests on it: the optimiser may search with it, and
+races and validates at ``reference`` (docs/optimizer.md).
+
+Exploration is defined only relative to the step that study measured: it needs the
+implicit method (``integrator: implicit``) at the reference step (``dt: 0``,
+``implicit_dt: 0.001`` s); a configuration with another step is refused (ConfigError
+naming the field) rather than scaled, since no study measured a doubled step elsewhere.
+"""
+from __future__ import annotations
+
+from .config import ConfigError, SimConfig
+
+__all__ = ["FIDELITIES", "REFERENCE", "EXPLORATION", "FIDELITY_CHANGES",
+           "FIDELITY_REQUIRES", "FidelityError", "check_fidelity", "at_fidelity",
+           "fidelity_text"]
+
+REFERENCE = "reference"
+EXPLORATION = "exploration"
+#: fidelity -> the SimConfig fields it sets (s for the steps); source of exploration's
+#: 2 ms: docs/studies/step.md
+FIDELITY_CHANGES: dict[str, dict] = {
+    REFERENCE: {},
+    EXPLORATION: {"implicit_dt": 2e-3},
+}
+#: fidelity -> the SimConfig field values it needs in the configuration it is applied to
+#: (the cell docs/studies/step.md compared with: the implicit method at its 1 ms step)
+FIDELITY_REQUIRES: dict[str, dict] = {
+    REFERENCE: {},
+    EXPLORATION: {"integrator": "implicit", "dt": 0.0, "implicit_dt": 1e-3},
+}
+#: the fidelity names, the reference first
+FIDELITIES: tuple[str, ...] = tuple(FIDELITY_CHANGES)
+
+
+class FidelityError(ConfigError):
+    """A fidelity name that is not one of :data:`FIDELITIES`, or a configuration that
+    the fidelity cannot be applied to (message names the field and what is allowed)."""
+
+
+def check_fidelity(name, field: str = "fidelity") -> str:
+    """``name`` if it is one of :data:`FIDELITIES`, else FidelityError naming ``field``
+    (e.g. '--fidelity') and the allowed values."""
+    if not isinstance(name, str) or name not in FIDELITY_CHANGES:
+        raise FidelityError(f"{field}: got {name!r}; must be one of "
+                            f"{', '.join(repr(f) for f in FIDELITIES)}")
+    return name
+
+
+def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> SimConfig:
+    """``config`` simulated at ``fidelity``: ``reference`` returns ``config`` itself;
+    ``exploration`` a copy with :data:`FIDELITY_CHANGES` applied (implicit step 2 ms).
+    FidelityError when the name is unknown or ``config`` lacks a field value
+    :data:`FIDELITY_REQUIRES` names (``field``: how the caller names the fidelity)."""
+    check_fidelity(fidelity, field)
+    changes = FIDELITY_CHANGES[fidelity]
+    if not changes:
+        return config
+    for name, want in FIDELITY_REQUIRES[fidelity].items():
+        got = getattr(config, name)
+        if got != want:
+            raise FidelityError(
+                f"{field} {fidelity!r}: config field '{name}' is {got!r}; the {fidelity} "
+                f"fidelity sets {_changes_text(changes)} and needs {name} = {want!r} "
+                f"(docs/studies/step.md measured it against the implicit method at 1 ms); "
+                f"leave '{name}' at {want!r} or use {field} {REFERENCE!r}")
+    try:
+        return config.replace(**changes)
+    except ConfigError as exc:               # e.g. a metric_rate the 2 ms step does not divide
+        raise FidelityError(f"{field} {fidelity!r}: {exc}") from None
+
+
+def fidelity_text(fidelity: str) -> str:
+    """The fidelity in words, e.g. "exploration (implicit_dt = 0.002 s)"."""
+    changes = FIDELITY_CHANGES[check_fidelity(fidelity)]
+    return fidelity if not changes else f"{fidelity} ({_changes_text(changes)})"
+
+
+def _changes_text(changes: dict) -> str:
+    return ", ".join(f"{k} = {v:g} s" if k.endswith("dt") else f"{k} = {v!r}"
+                     for k, v in changes.items())
