@@ -88,6 +88,11 @@ REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metric
 LOCKSTEP_SUBSCRIBERS = {"setup": 5, "launch_command": 4, "closing_command": 4,
                         "true_measurement": 2, "measurement": 2, "closing_decision": 2}
 LOCKSTEP_PUBLISHERS = ("true_measurement", "measurement", "closing_decision")
+#: the topic whose publisher's liveliness shows each node of the suite alive, and that
+#: node: the capture node aborts an episode at once when one of them is gone
+#: (qos.ALIVE_LEASE_S; the sensor node only in lockstep episodes)
+WATCHED = {"net_state": "sim_node", "metrics": "monitor_node",
+           "launch_command": "actuator_node", "measurement": "sensor_node"}
 #: topics every bag holds, whatever ``record_topics`` says (replay needs them; the loop's
 #: topics are silent unless an episode runs in lockstep)
 ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",

@@ -26,7 +26,7 @@ from ...core.scenario import actions_for, world_for
 from .. import conversions as conv
 from ..loop import builtin_controller, episode_policy, episode_scenario, runs_in_lockstep
 from ..parameters import declare, node_spreads, param, topic
-from ..qos import command_qos, state_qos
+from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
 
 NODE = "actuator_node"
@@ -41,7 +41,8 @@ class ActuatorNode(Node):
         declare(self, NODE)
         t = lambda k: topic(self, k)  # noqa: E731
         cq = command_qos()
-        self.pub_launch = self.create_publisher(LaunchCommand, t("launch_command"), cq)
+        self.pub_launch = self.create_publisher(LaunchCommand, t("launch_command"),  # WATCHED
+                                                alive_qos(command_qos(), ALIVE_LEASE_S))
         self.pub_closing = self.create_publisher(ClosingCommand, t("closing_command"), cq)
         self.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
         self.builtin = bool(param(self, "builtin_policy"))

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import rclpy
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
@@ -47,10 +48,10 @@ from .. import conversions as conv
 from ..loop import EXTERNAL
 from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, LOCKSTEP_PUBLISHERS, \
     LOCKSTEP_SUBSCRIBERS, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
-    STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, is_loop_failure, recorder_name
+    STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, WATCHED, is_loop_failure, recorder_name
 from ..parameters import declare, describe_builtin, param, sim_config_of, sim_config_problem, \
     topic
-from ..qos import LATCHED_DEPTH, command_qos, state_qos
+from ..qos import ALIVE_DEADLINE_S, LATCHED_DEPTH, alive_qos, command_qos, state_qos
 from ..recording import Episode, msg_class
 from ..results import compare_results
 from ..runner import run_node, spin_while_ok
@@ -109,11 +110,20 @@ class CaptureNode(Node):
             if key not in self.recorded:
                 self.recorded.append(key)
         self._rec_subs = {}
+        # the nodes' liveliness, from the recorder's subscriptions of the topics that show
+        # it (names.WATCHED): live publishers per topic, and whether any ever was
+        self._alive = {key: 0 for key in WATCHED}
+        self._ever_alive = {key: False for key in WATCHED}
         for key in self.recorded:
             qos = state_qos(STATE_DEPTH) if key in STATE_TOPICS else command_qos()
-            self._rec_subs[key] = self.recorder.create_subscription(msg_class(TOPIC_TYPES[key]), self.topic_names[key],
-                                              lambda data, k=key: self.on_raw(k, data), qos,
-                                              raw=True)
+            events = None
+            if key in WATCHED:
+                qos = alive_qos(qos, ALIVE_DEADLINE_S)
+                events = SubscriptionEventCallbacks(
+                    liveliness=lambda event, k=key: self.on_liveliness(k, event))
+            self._rec_subs[key] = self.recorder.create_subscription(
+                msg_class(TOPIC_TYPES[key]), self.topic_names[key],
+                lambda data, k=key: self.on_raw(k, data), qos, raw=True, event_callbacks=events)
         self._rec_executor = SingleThreadedExecutor(context=self.context)
         self._rec_executor.add_node(self.recorder)
         self._rec_thread = threading.Thread(target=self._spin_recorder, name="recorder",
@@ -155,6 +165,25 @@ class CaptureNode(Node):
         return sim_config_of({k: param(self, k) for k in ("sim_config", "settle_time", "horizon")})
 
     # -- recorder --------------------------------------------------------------------------
+    def on_liveliness(self, key: str, event) -> None:
+        """A watched topic's publishers came alive or were lost (names.WATCHED)."""
+        self._alive[key] = int(event.alive_count)
+        if event.alive_count > 0:
+            self._ever_alive[key] = True
+
+    def gone_nodes(self, lockstep: bool) -> list[str]:
+        """The suite's nodes that were alive and are no longer (their process died or
+        shut down), by the liveliness of the topics that show them (names.WATCHED): the
+        sensor node counts in lockstep episodes only."""
+        gone = []
+        for key, node in WATCHED.items():
+            if key == "measurement" and not lockstep:
+                continue
+            if self._ever_alive[key] and self._alive[key] < 1:
+                gone.append(f"{node} (no live publisher on {self.topic_names[key]} for "
+                            f"{ALIVE_DEADLINE_S:g} s)")
+        return gone
+
     def on_raw(self, key: str, data: bytes) -> None:
         ep = self.episode
         if ep is not None:
@@ -265,7 +294,8 @@ class CaptureNode(Node):
             self.pub_setup.publish(conv.setup_msg(episode_id, design, int(request.seed), noise,
                                                   config, time.time(), nominal=request.nominal,
                                                   lockstep=lockstep))
-            error = self.wait_for_end(ep, feedback, canceled)
+            error = self.wait_for_end(ep, feedback, canceled,
+                                      lockstep=lockstep or config.policy.kind == EXTERNAL)
         except Exception as exc:  # noqa: BLE001 - reported in the answer
             error = f"{type(exc).__name__}: {exc}"
         except BaseException:                    # KeyboardInterrupt: leave a marked bag
@@ -287,9 +317,12 @@ class CaptureNode(Node):
                                 f"{mismatch}", bag_path=bag)
         return conv.Outcome(SUCCEEDED, result=ep.result, bag_path=bag)
 
-    def wait_for_end(self, ep: Episode, feedback=None, canceled=None) -> str:
+    def wait_for_end(self, ep: Episode, feedback=None, canceled=None, lockstep: bool = False) -> str:
         """'' once the result and the verdict are in (and late messages drained), else
-        the reason the episode failed (a timeout, the node shutting down, CANCELED_TEXT)."""
+        the reason the episode failed (a node of the suite gone, a timeout, the node
+        shutting down, CANCELED_TEXT).  A node whose process is gone is noticed within
+        qos.ALIVE_DEADLINE_S by its liveliness; the stall timeout is the last resort for
+        a node that lives but hangs."""
         start_to = float(param(self, "start_timeout"))
         stall_to = float(param(self, "stall_timeout"))
         total_to = float(param(self, "episode_timeout"))
@@ -300,6 +333,10 @@ class CaptureNode(Node):
                 return SHUTDOWN
             if canceled is not None and canceled():
                 return CANCELED_TEXT
+            gone = self.gone_nodes(lockstep)
+            if gone:
+                return (f"{'; '.join(gone)}: the node left the suite during the episode (its "
+                        "process died or shut down)")
             now = time.monotonic()
             if feedback is not None and now >= next_feedback:
                 n, data = ep.progress()
@@ -368,6 +405,8 @@ class CaptureNode(Node):
             for key in publishers:
                 if self.count_publishers(self.topic_names[key]) < 1:
                     missing.append(f"no publisher on {self.topic_names[key]}")
+            # a node whose process is gone may stay in the graph for DDS's lease (~20 s)
+            missing += [f"{g}: not alive" for g in self.gone_nodes(lockstep)]
             # the recorder (a node of this process) must have matched this node's setup
             # publisher, or a bag could miss the episode's first message (seen under load)
             if self._rec_subs["setup"].get_publisher_count() < 1:

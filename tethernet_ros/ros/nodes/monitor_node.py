@@ -19,7 +19,7 @@ from rclpy.node import Node
 from ...monitoring import StateMirror
 from .. import conversions as conv
 from ..parameters import declare, param, topic
-from ..qos import command_qos, latched_qos, state_qos
+from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, latched_qos, state_qos
 from ..runner import run_node
 from ..state import CommandBuffer
 
@@ -38,7 +38,8 @@ class MonitorNode(Node):
         sq, cq = state_qos(int(param(self, "queue_depth"))), command_qos()
         self.frame_id = param(self, "frame_id")
         self._warm_up()
-        self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"), sq)
+        self.pub_metrics = self.create_publisher(CaptureMetrics, t("metrics"),   # names.WATCHED
+                                                 alive_qos(sq, ALIVE_LEASE_S))
         self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), latched_qos())
         self.setup = None
         self.commands = CommandBuffer()

@@ -24,7 +24,7 @@ from rclpy.node import Node
 from .. import conversions as conv
 from ..loop import episode_scenario, episode_sensor, runs_in_lockstep
 from ..parameters import declare, param, topic
-from ..qos import command_qos, state_qos
+from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
 from ..state import CommandBuffer
 
@@ -44,7 +44,9 @@ class SensorNode(Node):
         sq, cq = state_qos(int(param(self, "queue_depth"))), command_qos()
         self.frame_id = param(self, "frame_id")
         self._warm_up()
-        self.pub_measurement = self.create_publisher(Measurement, t("measurement"), sq)
+        self.pub_measurement = self.create_publisher(Measurement, t("measurement"),  # WATCHED
+                                                     alive_qos(state_qos(int(param(self, "queue_depth"))),
+                                                               ALIVE_LEASE_S))
         self.pub_pose = self.create_publisher(PoseWithCovarianceStamped,
                                               t("sensed_target_pose"), sq)
         self.pub_twist = self.create_publisher(TwistWithCovarianceStamped,

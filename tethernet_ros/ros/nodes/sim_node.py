@@ -47,7 +47,7 @@ from ..markers import MarkerBuilder
 from ..names import CONTROLLER_TIMEOUT, TWO_CONTROLLERS
 from ..parameters import declare, param, topic
 from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
-from ..qos import command_qos, latched_qos, state_qos
+from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, latched_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
 from ..state import CommandBuffer, state_arrays
 
@@ -78,7 +78,9 @@ class SimNode(Node):
         depth = int(p("queue_depth"))
         sq, cq = state_qos(depth), command_qos()
         t = lambda k: topic(node, k)  # noqa: E731
-        self.pub_state = node.create_publisher(NetState, t("net_state"), sq)
+        # (its liveliness shows the capture node that this node is alive: names.WATCHED)
+        self.pub_state = node.create_publisher(NetState, t("net_state"),
+                                               alive_qos(state_qos(depth), ALIVE_LEASE_S))
         self.pub_pose = node.create_publisher(PoseStamped, t("target_pose"), sq)
         self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
         self.pub_markers = node.create_publisher(MarkerArray, t("markers"), sq)
