@@ -105,7 +105,8 @@ class Scenario:
 
     dt: integration step (s); stable_step: the explicit method's stable step (s);
     net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices);
-    close_threshold: the z_rel (m) that starts closing.
+    close_threshold: the z_rel (m) that starts closing; broadphase: the contacts' broad
+    phase (``kernel.BROADPHASE_MODES``; set before :meth:`kernel`; it changes no result).
 
     :meth:`kernel` builds the kernel's Model and one-lane Data from the parts, and rebinds
     every array a step changes to a view of that lane: from then on the parts show the
@@ -132,6 +133,7 @@ class Scenario:
     iterations: int = 4
     control: kn.ControlModel | None = None
     sensor_seed: int = 0
+    broadphase: str = "on"
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
     lane: int = field(default=0, repr=False, compare=False)
 
@@ -148,7 +150,8 @@ class Scenario:
     def _build_model(self) -> kn.Model:
         from .kernel.model import build_model
         return build_model(self.bodies, self.grid, self.links, self.drawstring, self.tether,
-                           self.target_body, self.control, self.params, self.iterations)
+                           self.target_body, self.control, self.params, self.iterations,
+                           kn.BROADPHASE_MODES.index(self.broadphase))
 
     def kernel(self) -> tuple[kn.Model, kn.Data]:
         """The kernel's (Model, Data) of this episode: on first call a Data of one lane is

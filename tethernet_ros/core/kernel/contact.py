@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
 from .geometry import local_sdf
 from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 
@@ -22,7 +23,8 @@ from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 def contact_forces(model, data, scr, l):
     """Add lane l's contact forces to scr.F; return the force (fx, fy, fz) and torque about
     its CoM (tx, ty, tz) on the target, in the world frame.  scr.R[:, :, l] must hold the
-    target's rotation matrix."""
+    target's rotation matrix.  Bodies that the broad phase proves apart from the target
+    are not tested (``broadphase``)."""
     b_ = data.bodies
     x = b_.x
     v = b_.v
@@ -41,6 +43,8 @@ def contact_forces(model, data, scr, l):
     k_c_unit = om_c * om_c                      # contact stiffness per kg
     c_c_unit = 2.0 * prm.zeta_contact * om_c    # contact damping per kg
     bound = prm.tgt_bound
+    bp = data.broad
+    mode = model.broadphase
     n_contacts = 0
     fx_t = 0.0
     fy_t = 0.0
@@ -62,9 +66,24 @@ def contact_forces(model, data, scr, l):
         bx = R[0, 0, l] * rx + R[1, 0, l] * ry + R[2, 0, l] * rz
         by = R[0, 1, l] * rx + R[1, 1, l] * ry + R[2, 1, l] * rz
         bz = R[0, 2, l] * rx + R[1, 2, l] * ry + R[2, 2, l] * rz
+        # broad phase: a body provably apart from the surface feels no force (module
+        # broadphase); the exact test below would only have switched its mask on
+        proven = mode != BROAD_OFF and proven_clear(bp, i, l, bx, by, bz, radius[i])
+        if proven and mode == BROAD_ON:
+            bp.skips[l] += 1
+            if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
+                b_.contact_mask[i, l] = CONTACT_ON
+            continue
         sd, nbx, nby, nbz = local_sdf(bx, by, bz, model.target.cyl, model.target.verts,
                                       model.target.offsets)
+        bp.tests[l] += 1
         delta = radius[i] - sd
+        if proven:                                 # mode check: was it apart after all?
+            bp.skips[l] += 1
+            if delta > 0.0:
+                bp.misses[l] += 1
+        elif mode != BROAD_OFF:
+            remember(bp, i, l, bx, by, bz, sd)
         if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
             if delta > 0.0:
                 continue

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
 from .geometry import local_sdf
 from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
 
@@ -21,7 +22,8 @@ SPECULATIVE_MARGIN = 0.05
 def prepare_contact_rows(model, data, scr, l):
     """Lane l: a contact row for every body touching the target or close enough to touch
     it within the step (speculative); warm-start impulses applied.  scr.R[:, :, l] must
-    hold the target's rotation matrix."""
+    hold the target's rotation matrix.  Bodies that the broad phase proves farther from
+    the target than a row's reach are not tested (``broadphase``)."""
     b_ = data.bodies
     x = b_.x
     v = b_.v
@@ -36,6 +38,8 @@ def prepare_contact_rows(model, data, scr, l):
     tvx, tvy, tvz = tg.vel[0, l], tg.vel[1, l], tg.vel[2, l]
     ox, oy, oz = tg.omega[0, l], tg.omega[1, l], tg.omega[2, l]
     radius = model.bodies.radius
+    bp = data.broad
+    mode = model.broadphase
     n_rows = 0
     for i in range(x.shape[0]):
         if b_.contact_mask[i, l] == 0 or w[i, l] == 0.0:
@@ -59,9 +63,26 @@ def prepare_contact_rows(model, data, scr, l):
         bx = R[0, 0, l] * rx + R[1, 0, l] * ry + R[2, 0, l] * rz
         by = R[0, 1, l] * rx + R[1, 1, l] * ry + R[2, 1, l] * rz
         bz = R[0, 2, l] * rx + R[1, 2, l] * ry + R[2, 2, l] * rz
+        # broad phase: a gap provably beyond the row's reach makes no row and changes
+        # nothing but what the exact test below would (module broadphase)
+        proven = mode != BROAD_OFF and proven_clear(bp, i, l, bx, by, bz,
+                                                    radius[i] + h * vrel + SPECULATIVE_MARGIN)
+        if proven and mode == BROAD_ON:
+            bp.skips[l] += 1
+            ws.contact_pn[i, l] = 0.0
+            if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
+                b_.contact_mask[i, l] = CONTACT_ON
+            continue
         sd, nbx, nby, nbz = local_sdf(bx, by, bz, model.target.cyl, model.target.verts,
                                       model.target.offsets)
+        bp.tests[l] += 1
         C = sd - radius[i]                         # gap (m), negative: penetration
+        if proven:                                 # mode check: would it have been clear?
+            bp.skips[l] += 1
+            if not (C >= 0.0 and C > h * vrel + SPECULATIVE_MARGIN):
+                bp.misses[l] += 1
+        elif mode != BROAD_OFF:
+            remember(bp, i, l, bx, by, bz, sd)
         if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
             if C < 0.0:
                 ws.contact_pn[i, l] = 0.0

@@ -46,11 +46,18 @@ SensorData = namedtuple("SensorData", "rng buf taken head")
 #: (m), has_prev (K,) uint8.
 PolicyData = namedtuple("PolicyData", "prev_zrel has_prev")
 
+#: The contacts' broad phase (``broadphase``): point (N, 3, K) the body-frame point (m) of
+#: each body's last exact test, dist (N, K) its signed distance to the target there (m; 0:
+#: none yet); tests (K,) exact tests made, skips (K,) tests skipped (mode check: that
+#: would be skipped), misses (K,) (mode check) of those, the ones not clear after all;
+#: int64 counts.
+BroadData = namedtuple("BroadData", "point dist tests skips misses")
+
 #: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the closing
 #: displacement d_c of the episode (m); contact_count (K,): body-steps in contact;
-#: max_penetration (K,) (m).
+#: max_penetration (K,) (m); broad: the contacts' broad phase.
 Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
-                          "contact_count max_penetration")
+                          "contact_count max_penetration broad")
 
 
 def _lanes(a, dtype=np.float64) -> np.ndarray:
@@ -63,6 +70,7 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
     """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero);
     a sensor buffer of ``sensor_slots`` measurements and its generator's seed."""
     from ..sensing import N_CHANNELS
+    n_bodies = np.shape(bodies.x)[0]
     return Data(
         bodies=BodyData(x=_lanes(bodies.x), v=_lanes(bodies.v), w=_lanes(bodies.w),
                         mass=_lanes(bodies.mass), contact_mask=_lanes(bodies.contact_mask, np.uint8),
@@ -85,7 +93,10 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
                           taken=np.full((sensor_slots, 1), -1, dtype=np.int64),
                           head=np.zeros(1, dtype=np.int64)),
         policy=PolicyData(prev_zrel=np.zeros(1), has_prev=np.zeros(1, dtype=np.uint8)),
-        contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1))
+        contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1),
+        broad=BroadData(point=np.zeros((n_bodies, 3, 1)), dist=np.zeros((n_bodies, 1)),
+                        tests=np.zeros(1, dtype=np.int64), skips=np.zeros(1, dtype=np.int64),
+                        misses=np.zeros(1, dtype=np.int64)))
 
 
 def _map(data: Data, fn) -> Data:

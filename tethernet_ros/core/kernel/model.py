@@ -11,6 +11,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from .broadphase import BROAD_ON
 from .state import Params
 
 #: radius (N,): contact sphere radius (m); k_contact (N,): the body's contact stiffness
@@ -53,8 +54,10 @@ TetherModel = namedtuple("TetherModel", "nodes links centre winch")
 #: primitives: cyl [axial centre, half length, radius] (m), verts (V, 2), offsets (S + 1,).
 TargetModel = namedtuple("TargetModel", "inertia cyl verts offsets")
 
-#: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step.
-Model = namedtuple("Model", "bodies grid links ring tether target control params iterations")
+#: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step; broadphase:
+#: the contacts' broad phase (index into broadphase.BROADPHASE_MODES; it changes no result).
+Model = namedtuple("Model", "bodies grid links ring tether target control params iterations "
+                            "broadphase", defaults=(BROAD_ON,))
 
 
 def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
@@ -74,8 +77,9 @@ def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
 
 
 def build_model(bodies, grid, links, drawstring, tether, target_body, control: ControlModel,
-                params: Params, iterations: int) -> Model:
-    """The constant model of an episode's parts (``state``)."""
+                params: Params, iterations: int, broadphase: int = BROAD_ON) -> Model:
+    """The constant model of an episode's parts (``state``); ``broadphase`` the contacts'
+    broad phase mode (``broadphase.BROADPHASE_MODES``)."""
     n = grid.n
     w = np.asarray(bodies.w, dtype=np.float64)
     h = float(params.dt)
@@ -98,7 +102,8 @@ def build_model(bodies, grid, links, drawstring, tether, target_body, control: C
         target=TargetModel(inertia=np.ascontiguousarray(target_body.inertia, dtype=np.float64),
                            cyl=target_body.cyl, verts=target_body.verts,
                            offsets=target_body.offsets),
-        control=control, params=params, iterations=int(iterations))
+        control=control, params=params, iterations=int(iterations),
+        broadphase=int(broadphase))
 
 
 def reference_point(nodes, weights) -> tuple[np.ndarray, np.ndarray, float]:
