@@ -114,7 +114,7 @@ class ActuatorNode(Node):
 
 
 def main(args=None) -> int:
-    return run_node(ActuatorNode, args)
+    return run_node(ActuatorNode, args, events=True)
 
 
 if __name__ == "__main__":

@@ -147,7 +147,7 @@ class SensorNode(Node):
 
 
 def main(args=None) -> int:
-    return run_node(SensorNode, args)
+    return run_node(SensorNode, args, events=True)
 
 
 if __name__ == "__main__":
