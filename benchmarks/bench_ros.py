@@ -3,6 +3,7 @@ and the largest state publish rate the suite keeps up with.  Prints numbers; no 
 
     .venv/bin/python benchmarks/bench_ros.py [--design time-min] [--seed 3]
         [--rates 10,30,100,300,1000] [--sweep-settle 2.0] [--repeat 6]
+        [--lockstep-only] [--lockstep-repeat 3] [--sensing-rate 50]
 
 1. Ratio: the same episode (default configuration) run by ``run_episode`` in this process
    (kernels warm) and by a warm suite (nodes already started, bag recorded, default
@@ -12,11 +13,20 @@ and the largest state publish rate the suite keeps up with.  Prints numbers; no 
    (``--sweep-settle``).  The suite keeps up at a rate when every published state reaches
    the monitor and the recorder (bag counts) and the monitor's verdict follows the
    simulation's result by under 0.5 s (no backlog).
+3. Lockstep (first, or alone with ``--lockstep-only``): the wall time per control step of
+   a lockstep capture (1 deg/s flat tumble, ``--sensing-rate`` Hz with 60 ms latency,
+   adaptive policy, bag recorded), median and 95th percentile as sim_node measures them
+   (from one decision to the next: the kernel's steps between them included), and the
+   same control steps' kernel time alone in this process; beside the floor, a minimal
+   rclpy round trip of three messages (benchmarks/ros_relay.py), bare and with one
+   listener hearing every message as the suite's recorder does.  Goal: at most 3 times
+   the floor.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import tempfile
 import time
@@ -54,6 +64,69 @@ def bag_stats(path) -> dict:
             "verdict_lag": lag, "size_mb": c.file_size / 1e6}
 
 
+STEP_LINE = re.compile(r"lockstep: (\d+) control steps, wall time per step median ([\d.]+) ms, "
+                       r"95th percentile ([\d.]+) ms \(waiting for the decision: median ([\d.]+) ms")
+
+
+def kernel_ms_per_control_step(design, config) -> tuple[int, float]:
+    """(integration steps per control step, ms of kernel time for them in flight), in
+    this process, kernels warm."""
+    from tethernet_ros.core.episode import CaptureSimulation
+    from tethernet_ros.core.scenario import scenario_for
+
+    sim = CaptureSimulation(scenario_for(design, config=config))
+    period = int(sim.model.control.period)
+    sim.advance(period)
+    t, n = time.perf_counter(), 0
+    while not sim.closing_active and n < 400:
+        sim.advance(period)
+        n += 1
+    return period, 1e3 * (time.perf_counter() - t) / max(n, 1)
+
+
+def lockstep_section(args) -> None:
+    import ros_relay
+
+    design = load_design(args.design)
+    cfg = SimConfig.from_dict({"tumble": {"rate_deg_s": 1.0, "axis": "flat"},
+                               "sensing": {"rate_hz": args.sensing_rate, "latency": 0.06},
+                               "policy": {"kind": "adaptive"}})
+    tmp = Path(tempfile.mkdtemp(prefix="bench_ros_lockstep_"))
+    with RosSuite(config=cfg, noise_model=NoiseModel(), bag_dir=tmp / "bags",
+                  log_dir=tmp / "logs", lockstep=True) as suite:
+        walls = []
+        for i in range(args.lockstep_repeat):
+            t = time.perf_counter()
+            suite.capture(design, args.seed, bag_name=f"lockstep{i}")
+            walls.append(time.perf_counter() - t)
+    rows = [tuple(float(x) for x in m.groups()) for m in
+            STEP_LINE.finditer((tmp / "logs" / "sim_node.log").read_text(errors="replace"))]
+    period, kernel = kernel_ms_per_control_step(design, cfg)
+    bare = ros_relay.floor(300)
+    heard = ros_relay.floor(300, listeners=1)
+    print(f"lockstep: {args.design} seed {args.seed}, {args.sensing_rate:g} Hz sensing (every "
+          f"{period} steps), 60 ms latency, adaptive policy, 1 deg/s flat tumble, bag recorded")
+    print(f"{'capture':>8} {'wall s':>7} {'steps':>6} {'median ms':>10} {'p95 ms':>7} "
+          f"{'waiting ms':>11}")
+    for i, (w, r) in enumerate(zip(walls, rows)):
+        print(f"{i:8d} {w:7.2f} {int(r[0]):6d} {r[1]:10.2f} {r[2]:7.2f} {r[3]:11.2f}")
+    med = sorted(r[1] for r in rows)[len(rows) // 2] if rows else float("nan")
+    print(f"kernel alone per control step (this process): {kernel:.2f} ms")
+    print(f"floor, three messages: bare median {bare['median_ms']:.2f} ms (p95 "
+          f"{bare['p95_ms']:.2f}); with a recorder-like listener {heard['median_ms']:.2f} ms "
+          f"(p95 {heard['p95_ms']:.2f})")
+    wait = sorted(r[3] for r in rows)[len(rows) // 2] if rows else float("nan")
+    print(f"ratio median wait for the decision / floor: {wait / bare['median_ms']:.2f} (bare), "
+          f"{wait / heard['median_ms']:.2f} (with the listener)  (goal <= 3)")
+    print(f"ratio median step / floor: {med / bare['median_ms']:.2f} (bare), "
+          f"{med / heard['median_ms']:.2f} (with the listener); without the kernel's own time: "
+          f"{(med - kernel) / bare['median_ms']:.2f}, {(med - kernel) / heard['median_ms']:.2f}")
+    print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f}\n")
+    import shutil
+
+    shutil.rmtree(tmp, ignore_errors=True)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--design", default="time-min")
@@ -62,7 +135,14 @@ def main(argv=None) -> int:
     ap.add_argument("--sweep-settle", type=float, default=2.0)
     ap.add_argument("--repeat", type=int, default=6,
                     help="direct/suite pairs for the ratio (default 6)")
+    ap.add_argument("--lockstep-only", action="store_true",
+                    help="only the lockstep section (3.)")
+    ap.add_argument("--lockstep-repeat", type=int, default=3)
+    ap.add_argument("--sensing-rate", type=float, default=50.0)
     args = ap.parse_args(argv)
+    lockstep_section(args)
+    if args.lockstep_only:
+        return 0
     design = load_design(args.design)
     noise = NoiseModel()
     sample = noise.sample(args.seed)

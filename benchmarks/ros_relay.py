@@ -2,14 +2,18 @@
 pattern as a control step (sim_node -> sensor_node -> controller -> sim_node).
 
     .venv/bin/python benchmarks/ros_relay.py relay IN OUT    # one hop: IN -> OUT (a process)
-    .venv/bin/python benchmarks/ros_relay.py floor [--n 500]  # start two hops, time round trips
+    .venv/bin/python benchmarks/ros_relay.py floor [--n 500] [--listeners K]
+                                                              # start two hops, time round trips
+    .venv/bin/python benchmarks/ros_relay.py listen           # a recorder's share: hears all three
 
 ``floor`` starts two relay processes (IN -> OUT, republished unchanged: a Measurement, as
 the sensor node forwards one; then the controller's hop, a Measurement answered with a
 ClosingDecision), publishes a Measurement and waits for the decision, ``--n`` times, in
 nodes spun like the suite's (a SingleThreadedExecutor, ``runner.spin_while_ok``), with the
 suite's state QoS.  It prints the median and 95th percentile of the round trip (ms).
-Used by bench_ros.py; no asserts.
+``--listeners K`` also starts K processes that subscribe to all three topics as the
+capture node's recorder does (raw), since the suite records every loop message.  Used by
+bench_ros.py; no asserts.
 """
 from __future__ import annotations
 
@@ -63,7 +67,32 @@ def relay(src: str, dst: str) -> int:
     return 0
 
 
-def floor(n: int = 500, warm: int = 50) -> dict:
+def listen() -> int:
+    """Hear all three topics, raw, as the suite's recorder does, until SIGINT or SIGTERM."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
+    from tethernet_msgs.msg import ClosingDecision, Measurement
+
+    from tethernet_ros.ros.qos import state_qos
+    from tethernet_ros.ros.runner import spin_while_ok
+
+    rclpy.init(signal_handler_options=SignalHandlerOptions.ALL)
+    node = rclpy.create_node("relay_listener")
+    for topic, kind in zip(TOPICS, (Measurement, Measurement, ClosingDecision)):
+        node.create_subscription(kind, topic, lambda data: None, state_qos(), raw=True)
+    ex = SingleThreadedExecutor()
+    ex.add_node(node)
+    try:
+        spin_while_ok(ex, node.context)
+    except Exception:  # noqa: BLE001 - shutdown
+        pass
+    node.destroy_node()
+    rclpy.try_shutdown()
+    return 0
+
+
+def floor(n: int = 500, warm: int = 50, listeners: int = 0) -> dict:
     """Round trips of three messages through two relay processes: {'median_ms', 'p95_ms',
     'n'} (the first ``warm`` left out)."""
     import threading
@@ -76,6 +105,10 @@ def floor(n: int = 500, warm: int = 50) -> dict:
 
     procs = [subprocess.Popen([sys.executable, __file__, "relay", TOPICS[i], TOPICS[i + 1]],
                               cwd=ROOT) for i in range(2)]
+    procs += [subprocess.Popen([sys.executable, __file__, "listen"], cwd=ROOT)
+              for _ in range(listeners)]
+    if listeners:
+        time.sleep(3.0)                           # (matched before the timing starts)
     rclpy.init()
     node = rclpy.create_node("relay_client")
     pub = node.create_publisher(Measurement, TOPICS[0], state_qos())
@@ -125,10 +158,14 @@ def main(argv=None) -> int:
     r.add_argument("dst")
     f = sub.add_parser("floor")
     f.add_argument("--n", type=int, default=500)
+    f.add_argument("--listeners", type=int, default=0)
+    sub.add_parser("listen")
     args = ap.parse_args(argv)
     if args.what == "relay":
         return relay(args.src, args.dst)
-    res = floor(args.n)
+    if args.what == "listen":
+        return listen()
+    res = floor(args.n, listeners=args.listeners)
     print(f"minimal rclpy round trip of three messages ({res['n']}): median "
           f"{res['median_ms']:.2f} ms, 95th percentile {res['p95_ms']:.2f} ms")
     return 0
