@@ -1,5 +1,6 @@
-"""Episodes per core-second: the single-episode kernel against the batched one, side by
-side in one run, on the same samples of each reference design.
+"""Episodes per core-second: the single-episode kernel against the batched one, the
+batched one with the contacts' broad phase off, and with the exploration fidelity, side by
+side in one run, on the same samples of each reference design (``make bench``).
 
     .venv/bin/python benchmarks/bench_batch.py [--samples N] [--lanes 4,8,16] [--designs a,b]
 
@@ -210,7 +211,10 @@ def main(argv=None) -> int:
     from tethernet_ros.core.noise import NoiseModel
     from tethernet_ros.montecarlo.seeds import sample_seed
 
+    from tethernet_ros.core.fidelity import EXPLORATION, at_fidelity
+
     cfg = SimConfig()
+    explore = at_fidelity(cfg, EXPLORATION)
     chosen = choose_lanes(cfg)
     lane_counts = sorted({int(k) for k in args.lanes.split(",")} | {chosen})
     # compile / load every kernel before timing
@@ -241,7 +245,24 @@ def main(argv=None) -> int:
             label = f"batch K={k}" + ("*" if k == chosen else "")
             print(f"{name:<11} {label:<12} {cpu:8.2f} {len(samples) / cpu:10.3f} "
                   f"{cpu_single / cpu:6.2f} {sim_time / cpu:9.1f} {str(same):>9}")
-    print("* the lane count choose_lanes picks on this CPU")
+        # at the chosen lane count: the broad phase off (bit for bit the same episodes), and
+        # the exploration fidelity (the 2 ms step: other episodes, so no identity check)
+        for label, runner, check in (
+                ("K* bp off", BatchRunner(design, cfg, lanes=chosen, broadphase="off"), True),
+                ("K* explore", BatchRunner(design, explore, lanes=chosen), False)):
+            t0 = time.process_time()
+            got = {tag: r for tag, r, _ in runner.run(samples)}
+            cpu = time.process_time() - t0
+            sim = sum(r.completion_time for r in got.values())
+            same = all((got[i].settled_cqi, got[i].locked_pairs, got[i].closing_time, got[i].steps)
+                       == (r.settled_cqi, r.locked_pairs, r.closing_time, r.steps)
+                       or (got[i].steps == r.steps and got[i].failure_reason == r.failure_reason)
+                       for i, r in single.items()) if check else "-"
+            print(f"{name:<11} {label:<12} {cpu:8.2f} {len(samples) / cpu:10.3f} "
+                  f"{cpu_single / cpu:6.2f} {sim / cpu:9.1f} {str(same):>9}")
+    print("* the lane count choose_lanes picks on this CPU (broad phase on: the default); "
+          "bp off: the contacts' broad phase off; explore: the exploration fidelity "
+          "(core/fidelity.py, the 2 ms step), whose RTF counts its own simulated time")
     print(simd_share(chosen))
     print("\n".join(broadphase_cost(args.designs.split(","), args.samples)))
     return 0
