@@ -9,7 +9,7 @@ pattern as a control step (sim_node -> sensor_node -> controller -> sim_node).
 ``floor`` starts two relay processes (IN -> OUT, republished unchanged: a Measurement, as
 the sensor node forwards one; then the controller's hop, a Measurement answered with a
 ClosingDecision), publishes a Measurement and waits for the decision, ``--n`` times, in
-nodes spun like the suite's (a SingleThreadedExecutor, ``runner.spin_while_ok``), with the
+nodes spun like the suite's (``runner.run_node``: a single-threaded executor), with the
 suite's state QoS.  It prints the median and 95th percentile of the round trip (ms).
 ``--listeners K`` also starts K processes that subscribe to all three topics as the
 capture node's recorder does (raw), since the suite records every loop message.  Used by
@@ -31,65 +31,55 @@ os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 TOPICS = ("/bench_relay/truth", "/bench_relay/measurement", "/bench_relay/decision")
 
 
+def _hop_node(name: str, wire):
+    """A node ``name`` whose ``wire(node)`` creates its publishers and subscriptions."""
+    import rclpy
+
+    node = rclpy.create_node(name)
+    wire(node)
+    return node
+
+
 def relay(src: str, dst: str) -> int:
     """One hop: republish every Measurement of ``src`` on ``dst`` (a Measurement, or a
-    ClosingDecision when ``dst`` is the last topic), until SIGINT or SIGTERM."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.signals import SignalHandlerOptions
+    ClosingDecision when ``dst`` is the last topic), until SIGINT or SIGTERM; spun as the
+    suite's nodes are (``runner.run_node``, a single-threaded executor)."""
     from tethernet_msgs.msg import ClosingDecision, Measurement
 
     from tethernet_ros.ros.qos import state_qos
-    from tethernet_ros.ros.runner import spin_while_ok
+    from tethernet_ros.ros.runner import run_node
 
-    rclpy.init(signal_handler_options=SignalHandlerOptions.ALL)
-    node = rclpy.create_node(f"relay_{dst.rsplit('/', 1)[1]}")
     decides = dst == TOPICS[-1]
-    pub = node.create_publisher(ClosingDecision if decides else Measurement, dst, state_qos())
 
-    def forward(msg):
-        if decides:
-            out = ClosingDecision()
-            out.header, out.episode_id, out.step = msg.header, msg.episode_id, msg.step
-            pub.publish(out)
-        else:
-            pub.publish(msg)
+    def wire(node):
+        pub = node.create_publisher(ClosingDecision if decides else Measurement, dst,
+                                    state_qos())
 
-    node.create_subscription(Measurement, src, forward, state_qos())
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-    try:
-        spin_while_ok(ex, node.context)
-    except Exception:  # noqa: BLE001 - shutdown
-        pass
-    node.destroy_node()
-    rclpy.try_shutdown()
-    return 0
+        def forward(msg):
+            if decides:
+                out = ClosingDecision()
+                out.header, out.episode_id, out.step = msg.header, msg.episode_id, msg.step
+                pub.publish(out)
+            else:
+                pub.publish(msg)
+
+        node.create_subscription(Measurement, src, forward, state_qos())
+
+    return run_node(lambda: _hop_node(f"relay_{dst.rsplit('/', 1)[1]}", wire), [])
 
 
 def listen() -> int:
     """Hear all three topics, raw, as the suite's recorder does, until SIGINT or SIGTERM."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-    from rclpy.signals import SignalHandlerOptions
     from tethernet_msgs.msg import ClosingDecision, Measurement
 
     from tethernet_ros.ros.qos import state_qos
-    from tethernet_ros.ros.runner import spin_while_ok
+    from tethernet_ros.ros.runner import run_node
 
-    rclpy.init(signal_handler_options=SignalHandlerOptions.ALL)
-    node = rclpy.create_node("relay_listener")
-    for topic, kind in zip(TOPICS, (Measurement, Measurement, ClosingDecision)):
-        node.create_subscription(kind, topic, lambda data: None, state_qos(), raw=True)
-    ex = SingleThreadedExecutor()
-    ex.add_node(node)
-    try:
-        spin_while_ok(ex, node.context)
-    except Exception:  # noqa: BLE001 - shutdown
-        pass
-    node.destroy_node()
-    rclpy.try_shutdown()
-    return 0
+    def wire(node):
+        for topic, kind in zip(TOPICS, (Measurement, Measurement, ClosingDecision)):
+            node.create_subscription(kind, topic, lambda data: None, state_qos(), raw=True)
+
+    return run_node(lambda: _hop_node("relay_listener", wire), [])
 
 
 def floor(n: int = 500, warm: int = 50, listeners: int = 0) -> dict:
