@@ -69,6 +69,27 @@ def exit_process(status: int) -> None:
     os._exit(status)
 
 
+def _shutdown_artefact(exc: Exception) -> bool:
+    """Whether ``exc`` is what a callback meets when the context shut down under it
+    (rcl: "publisher's context is invalid", "context is not valid")."""
+    text = str(exc).lower()
+    return "context is invalid" in text or "context is not valid" in text \
+        or "invalid context" in text
+
+
+def _failed(node, factory, exc: Exception) -> int:
+    """Report a node's failure in one line on stderr; the exit status, 1."""
+    if os.environ.get("TETHERNET_DEBUG"):
+        import traceback
+
+        traceback.print_exc()
+    # before the node exists: the NODE name of its module (nodes/<node>.py)
+    name = node.get_name() if node is not None else \
+        getattr(sys.modules.get(getattr(factory, "__module__", "")), "NODE", "node")
+    print(f"{name}: error: {exc}", file=sys.stderr)
+    return 1
+
+
 def run_node(factory, args=None, threads: int = 1, exit_now: bool = True,
              events: bool = False) -> int:
     """Init rclpy, build the node with ``factory()``, spin it until SIGINT, SIGTERM or
@@ -110,15 +131,10 @@ def run_node(factory, args=None, threads: int = 1, exit_now: bool = True,
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except Exception as exc:  # noqa: BLE001 - one line on stderr, non-zero status
-        if os.environ.get("TETHERNET_DEBUG"):
-            import traceback
-
-            traceback.print_exc()
-        # before the node exists: the NODE name of its module (nodes/<node>.py)
-        name = node.get_name() if node is not None else \
-            getattr(sys.modules.get(getattr(factory, "__module__", "")), "NODE", "node")
-        print(f"{name}: error: {exc}", file=sys.stderr)
-        status = 1
+        if node is not None and not node.context.ok() and _shutdown_artefact(exc):
+            pass                             # a callback overtaken by SIGINT / SIGTERM
+        else:
+            status = _failed(node, factory, exc)
     finally:
         if node is not None:
             close = getattr(node, "close", None)
