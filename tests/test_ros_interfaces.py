@@ -94,6 +94,7 @@ EXPECTED_FIELDS = {
         "nominal": "boolean", "success": "boolean", "settled_cqi": "double",
         "locked_pairs": "uint32", "closing_time": "double", "completion_time": "double",
         "mass": "double", "failure_reason": "string", "wall_time": "double",
+        "steps": "int64", "max_penetration": "double",
     },
     Design: {
         "corner_mass": "double", "net_side": "double", "thread_radius": "double",
@@ -164,7 +165,8 @@ def _all_messages():
                           spin_scale=0.5, orientation_axis="y")
     result = EpisodeResult(episode_id="ep-1", seed=7, nominal=False, success=True,
                            settled_cqi=1.25, locked_pairs=11, closing_time=9.5,
-                           completion_time=29.5, mass=2.38, failure_reason="", wall_time=3.2)
+                           completion_time=29.5, mass=2.38, failure_reason="", wall_time=3.2,
+                           steps=29500, max_penetration=1.13e-4)
     return [
         _net_state(3),
         CaptureMetrics(sim_time=12.0, cqi=1.9, volume_term=0.1, area_term=0.2,

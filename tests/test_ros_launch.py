@@ -76,7 +76,9 @@ def test_launch_arguments_reach_the_nodes(tmp_path, case):
         assert got["builtin_policy"].bool_value is builtin, values
         assert got["lockstep"].bool_value is lockstep, values
         assert got["horizon"].double_value == 60.0           # a `-p` beside the file counts too
-        # the actuator without its built-in policy publishes no decisions at all
+        # the actuator without its built-in policy publishes no decisions at all (its name
+        # reaches the graph's node list a moment after its services answer)
+        assert graph.spin_until(lambda: "/actuator_node" in graph.names(), timeout=30)
         topics = {t for t, _ in graph.node.get_publisher_names_and_types_by_node(
             "actuator_node", "/")}
         assert ("/tethernet/closing_decision" in topics) is builtin, topics

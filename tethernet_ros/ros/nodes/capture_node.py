@@ -421,6 +421,11 @@ class CaptureNode(Node):
             time.sleep(0.05)
 
     def close(self) -> None:
+        # an episode in flight sees the context gone within 0.05 s and finishes its bag
+        # (marked with the reason) under the lock: let it, before the process ends
+        # (runner.exit_process ends the other threads with it)
+        if self._busy.acquire(timeout=3.0):
+            self._busy.release()
         self._action.destroy()
         ep = self.episode
         if ep is not None and ep.writer is not None:
