@@ -411,7 +411,7 @@ class SimNode(Node):
 
 
 def main(args=None) -> int:
-    return run_node(SimNode, args, threads=1)
+    return run_node(SimNode, args, events=True)
 
 
 if __name__ == "__main__":
