@@ -12,8 +12,9 @@ import numpy as np
 from . import detmath
 from . import kernel as kn
 from .kernel.model import reference_point
+from .kernel.sensing import TARGET_POSITIONS, seed_state, sensor_slots
 from .policies import PolicyConfig
-from .sensing import TARGET_POSITIONS, SensingConfig, seed_state
+from .sensing import SensingConfig
 from .tumble import TumbleConfig, axis_quaternion, quat_multiply, spin_of
 from .config import SimConfig
 from .design import Design
@@ -161,7 +162,7 @@ class Scenario:
             ct = self.control
             data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
                             self.close_threshold, self.events, self.solver,
-                            ct.latency // ct.period + 2, self.sensor_seed)
+                            sensor_slots(ct), self.sensor_seed)
             self._kernel = (self._build_model(), data)
             self._bind(data, 0)
         return self._kernel

@@ -12,6 +12,8 @@ from collections import namedtuple
 
 import numpy as np
 
+from .policy import new_policy_data
+from .sensing import new_sensor_data
 from .state import N_EV
 
 #: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
@@ -37,15 +39,6 @@ TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom")
 #: (N, K) (>= 0), contact_pt (N, 3, K) friction, lock_p (P, K).
 WarmStart = namedtuple("WarmStart", "grid_ph grid_pv link_p contact_pn contact_pt lock_p")
 
-#: The sensor (``core.sensing``): rng (K,) uint64 its generator's state; buf (B, C, K)
-#: the last B measurements, taken (B, K) the step each was taken at (-1: none), head
-#: (K,) the slot of the next one.
-SensorData = namedtuple("SensorData", "rng buf taken head")
-
-#: The closing policy's memory (``core.policies``): prev_zrel (K,) the last sensed z_rel
-#: (m), has_prev (K,) uint8.
-PolicyData = namedtuple("PolicyData", "prev_zrel has_prev")
-
 #: The contacts' broad phase (``broadphase``): point (N, 3, K) the body-frame point (m) of
 #: each body's last exact test, dist (N, K) its signed distance to the target there (m; 0:
 #: none yet); tests (K,) exact tests made, skips (K,) tests skipped (mode check: that
@@ -55,7 +48,9 @@ BroadData = namedtuple("BroadData", "point dist tests skips misses")
 
 #: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the closing
 #: displacement d_c of the episode (m); contact_count (K,): body-steps in contact;
-#: max_penetration (K,) (m); broad: the contacts' broad phase.
+#: max_penetration (K,) (m); sensor: the sensor's buffer and generator
+#: (``sensing.SensorData``); policy: the closing policy's memory (``policy.PolicyData``);
+#: broad: the contacts' broad phase.
 Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
                           "contact_count max_penetration broad")
 
@@ -69,7 +64,6 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
              solver, sensor_slots: int, sensor_seed: int) -> Data:
     """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero);
     a sensor buffer of ``sensor_slots`` measurements and its generator's seed."""
-    from ..sensing import N_CHANNELS
     n_bodies = np.shape(bodies.x)[0]
     return Data(
         bodies=BodyData(x=_lanes(bodies.x), v=_lanes(bodies.v), w=_lanes(bodies.w),
@@ -88,11 +82,8 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
                        contact_pt=_lanes(solver.contact_pt), lock_p=_lanes(solver.lock_p)),
         events=_lanes(events, np.int64),
         close_threshold=np.array([float(close_threshold)]),
-        sensor=SensorData(rng=np.array([sensor_seed], dtype=np.uint64),
-                          buf=np.zeros((sensor_slots, N_CHANNELS, 1)),
-                          taken=np.full((sensor_slots, 1), -1, dtype=np.int64),
-                          head=np.zeros(1, dtype=np.int64)),
-        policy=PolicyData(prev_zrel=np.zeros(1), has_prev=np.zeros(1, dtype=np.uint8)),
+        sensor=new_sensor_data(sensor_slots, sensor_seed),
+        policy=new_policy_data(),
         contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1),
         broad=BroadData(point=np.zeros((n_bodies, 3, 1)), dist=np.zeros((n_bodies, 1)),
                         tests=np.zeros(1, dtype=np.int64), skips=np.zeros(1, dtype=np.int64),

@@ -34,8 +34,8 @@ LinkModel = namedtuple("LinkModel", "pairs slots signs")
 #: The drawstring: pairs (P, 2) of adjacent ring bodies.
 RingModel = namedtuple("RingModel", "pairs")
 
-#: Sensing and the closing policy (``core.sensing``, ``core.policies``): policy (index
-#: into policies.POLICIES); period: steps between measurements (the control period);
+#: Sensing and the closing policy (``sensing``, ``policy``): policy (index
+#: into policy.POLICIES); period: steps between measurements (the control period);
 #: latency (steps); the net's reference point: the mean of ref_nodes weighted by
 #: ref_weights (kg, or 1), over ref_total; target_position (sensing.TARGET_*) and the
 #: planned target distance planned_z (m); noise: sigma_position (m), sigma_attitude (rad),
@@ -58,6 +58,13 @@ TargetModel = namedtuple("TargetModel", "inertia cyl verts offsets")
 #: the contacts' broad phase (index into broadphase.BROADPHASE_MODES; it changes no result).
 Model = namedtuple("Model", "bodies grid links ring tether target control params iterations "
                             "broadphase", defaults=(BROAD_ON,))
+
+
+def steps_every(rate_hz: float, dt: float) -> int:
+    """Steps between events at ``rate_hz`` (Hz) for a step of ``dt`` (s): the nearest whole
+    number, at least 1.  The one home of this conversion (the control period, metrics,
+    traces, publishing, markers)."""
+    return max(1, int(round(1.0 / (rate_hz * dt))))
 
 
 def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
