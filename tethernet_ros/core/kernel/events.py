@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from numba import njit
 
+from .data import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
 from .drawstring import update_locks
 from .policy import POLICY_EXTERNAL, decide
 from .sensing import buffer_measurement, truth_into
-from .state import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
 from .tether import lock_tether
 
 
