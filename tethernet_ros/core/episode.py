@@ -18,7 +18,8 @@ from .design import Design
 from .metrics import CQITerms, capture_quality_index, capture_verdict
 from .noise import NoiseSample
 from .scenario import Actions, Scenario, World, actions_for, build_scenario, world_for
-from .sensing import seed_state
+from .kernel.model import steps_every
+from .kernel.sensing import seed_state
 
 
 class CaptureSimulation:
@@ -209,13 +210,6 @@ def advance_kernel(cfg: SimConfig, model, data, scratch, n_steps: int) -> None:
         kn.advance_implicit(model, data, scratch, n_steps)
     else:
         kn.advance_explicit(model, data, scratch, n_steps)
-
-
-def steps_every(rate_hz: float, dt: float) -> int:
-    """Steps between events at ``rate_hz`` (Hz) for a step of ``dt`` (s): the nearest whole
-    number, at least 1.  The one home of this conversion (metrics, traces, publishing,
-    markers, sensing)."""
-    return max(1, int(round(1.0 / (rate_hz * dt))))
 
 
 class EpisodeClock:

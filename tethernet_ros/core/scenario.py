@@ -11,9 +11,12 @@ import numpy as np
 
 from . import detmath
 from . import kernel as kn
+from .kernel.data import lane_of
 from .kernel.model import reference_point
+from .kernel.sensing import TARGET_POSITIONS, seed_state, sensor_slots
+from .kernel.state import bind_lane
 from .policies import PolicyConfig
-from .sensing import TARGET_POSITIONS, SensingConfig, seed_state
+from .sensing import SensingConfig
 from .tumble import TumbleConfig, axis_quaternion, quat_multiply, spin_of
 from .config import SimConfig
 from .design import Design
@@ -101,7 +104,7 @@ def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
 @dataclass
 class Scenario:
     """One episode as named parts (``kernel.state``), with the design, configuration and
-    target it was built from.  ``solver`` holds the implicit method's warm start.
+    target it was built from.  ``warm`` holds the implicit method's warm start.
 
     dt: integration step (s); stable_step: the explicit method's stable step (s);
     net_nodes: the net's grid nodes; corner_bodies: the four corner masses (body indices);
@@ -117,14 +120,14 @@ class Scenario:
     config: SimConfig
     target: Target
     bodies: kn.Bodies
-    grid: kn.Grid
+    grid: kn.GridModel
     links: kn.Links
     drawstring: kn.Drawstring
-    tether: kn.Tether
+    tether: kn.TetherModel
     target_body: kn.TargetBody
     params: kn.Params
     events: np.ndarray
-    solver: kn.Solver
+    warm: kn.WarmStart
     dt: float
     stable_step: float
     net_nodes: np.ndarray
@@ -160,8 +163,8 @@ class Scenario:
             from .kernel.data import one_lane
             ct = self.control
             data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
-                            self.close_threshold, self.events, self.solver,
-                            ct.latency // ct.period + 2, self.sensor_seed)
+                            self.close_threshold, self.events, self.warm,
+                            sensor_slots(ct), self.sensor_seed)
             self._kernel = (self._build_model(), data)
             self._bind(data, 0)
         return self._kernel
@@ -175,25 +178,13 @@ class Scenario:
 
     def _bind(self, data: kn.Data, lane: int) -> None:
         """Rebind the parts' changing arrays to views of ``lane`` of ``data``."""
-        q = lane
-        bd, ln, rg, tg, ws = data.bodies, data.links, data.ring, data.target, data.warm
-        self.lane = q
-        self.bodies = self.bodies._replace(x=bd.x[:, :, q], v=bd.v[:, :, q], w=bd.w[:, q],
-                                           mass=bd.mass[:, q],
-                                           contact_mask=bd.contact_mask[:, q],
-                                           c_contact=bd.c_contact[:, q])
-        self.links = self.links._replace(rest=ln.rest[:, q], k=ln.k[:, q], c=ln.c[:, q],
-                                         active=ln.active[:, q])
-        self.drawstring = self.drawstring._replace(locked=rg.locked[:, q],
-                                                   maxdist=rg.maxdist[:, q],
-                                                   lock_step=rg.lock_step[:, q])
-        self.target_body = self.target_body._replace(pos=tg.pos[:, q], quat=tg.quat[:, q],
-                                                     vel=tg.vel[:, q], omega=tg.omega[:, q],
-                                                     ang_mom=tg.ang_mom[:, q])
-        self.events = data.events[:, q]
-        self.solver = kn.Solver(grid_ph=ws.grid_ph[..., q], grid_pv=ws.grid_pv[..., q],
-                                link_p=ws.link_p[:, q], contact_pn=ws.contact_pn[:, q],
-                                contact_pt=ws.contact_pt[..., q], lock_p=ws.lock_p[:, q])
+        self.lane = lane
+        self.bodies = bind_lane(self.bodies, data.bodies, lane)
+        self.links = bind_lane(self.links, data.links, lane)
+        self.drawstring = bind_lane(self.drawstring, data.ring, lane)
+        self.target_body = bind_lane(self.target_body, data.target, lane)
+        self.events = data.events[:, lane]
+        self.warm = lane_of(data.warm, lane)
 
     def threads(self):
         """Every thread, grid and other: (pairs (T, 2), rest (m), k (N/m), c (N s/m),
@@ -239,7 +230,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     x, v = stowed_state(lay, th, cv, cfg)
     mass = lumped_masses(design, cfg, lay, th, ring)
     other = other_threads(cfg, lay, th)
-    # grid threads are implicit in the kernel (kernel.Grid), all of rest length th.mesh
+    # grid threads are implicit in the kernel (kernel.GridModel), all of rest length th.mesh
     k_grid = th.EA / th.mesh
     grid_kh = np.full((n, n - 1), k_grid)
     grid_kv = np.full((n - 1, n), k_grid)
@@ -259,15 +250,14 @@ def build_scenario(design: Design, actions: Actions, world: World,
         design=design, config=cfg, target=target,
         bodies=kn.Bodies(x=x, v=v, w=w, mass=mass, radius=radius, contact_mask=contact,
                          k_contact=k_contact, c_contact=c_contact),
-        grid=kn.Grid(n=n, rest=th.mesh, kh=grid_kh, ch=grid_ch, kv=grid_kv, cv=grid_cv),
+        grid=kn.GridModel(n=n, rest=th.mesh, kh=grid_kh, ch=grid_ch, kv=grid_kv, cv=grid_cv),
         links=kn.Links(pairs=other.pairs, rest=other.rest, k=other.k, c=damping,
-                       active=other.active, node_links=other.slots, node_sign=other.signs),
+                       active=other.active, slots=other.slots, signs=other.signs),
         drawstring=kn.Drawstring(pairs=ring_pairs, locked=np.zeros(len(ring_pairs), dtype=np.uint8),
                                  maxdist=np.zeros(len(ring_pairs)),
-                                 lock_step=np.full(len(ring_pairs), -1, dtype=np.int64),
-                                 trigger_nodes=net_nodes),
-        tether=kn.Tether(nodes=np.arange(lay.tether0, lay.chaser, dtype=np.int64),
-                         links=other.tether_links, centre=lay.centre, winch=lay.chaser),
+                                 lock_step=np.full(len(ring_pairs), -1, dtype=np.int64)),
+        tether=kn.TetherModel(nodes=np.arange(lay.tether0, lay.chaser, dtype=np.int64),
+                              links=other.tether_links, centre=lay.centre, winch=lay.chaser),
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
             ang_mom=ang_mom, inertia=target.inertia.copy(), cyl=target.cylinder(), verts=verts,
@@ -275,7 +265,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
         params=kernel_params(design, cfg, th, target.bounding_radius, omega_1),
         close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),
-        solver=kn.new_solver(n, len(other.pairs), nb, len(ring_pairs)), dt=0.0,
+        warm=kn.new_warm_start(n, len(other.pairs), nb, len(ring_pairs)), dt=0.0,
         stable_step=0.0, net_nodes=net_nodes, corner_bodies=lay.corner_bodies,
     )
     # the integration step: a fraction of the stable step of every thread (grid and other)

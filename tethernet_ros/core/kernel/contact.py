@@ -16,7 +16,8 @@ from numba import njit
 
 from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
 from .geometry import local_sdf
-from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
+from .data import CONTACT_ON, CONTACT_ONCE_OUTSIDE
+from .model import CONTACT_FREQUENCY
 
 
 @njit(cache=True, inline='always', error_model='numpy')

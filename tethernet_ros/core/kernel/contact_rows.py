@@ -10,7 +10,8 @@ from numba import njit
 
 from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
 from .geometry import local_sdf
-from .state import CONTACT_FREQUENCY, CONTACT_ON, CONTACT_ONCE_OUTSIDE
+from .data import CONTACT_ON, CONTACT_ONCE_OUTSIDE
+from .model import CONTACT_FREQUENCY
 
 #: Contact rows are made for bodies within h |v_rel| + SPECULATIVE_MARGIN (m) of the target:
 #: the threads and the drawstring can whip a light node to more than 20 m/s within a step,

@@ -1,6 +1,7 @@
 """The kernel's per-lane data: everything a step changes, for K episodes of one model side
-by side (MuJoCo's mjData, with a lane axis).  Every array has the lane as its last axis,
-so that a loop over lanes is a contiguous, independent inner loop (SIMD across episodes).
+by side (MuJoCo's mjData, with a lane axis); each part's constant half is in :mod:`model`.
+Every array has the lane as its last axis, so that a loop over lanes is a contiguous,
+independent inner loop (SIMD across episodes).
 
 Lane l of every array is one episode; lanes never read each other, so an episode gives
 the same bits in any lane of any batch, and a batch of one is a single episode.
@@ -12,10 +13,21 @@ from collections import namedtuple
 
 import numpy as np
 
-from .state import N_EV
+from .policy import new_policy_data
+from .sensing import new_sensor_data
+
+#: BodyData.contact_mask values: no contact with the target; contact; contact once the body
+#: is outside the target (a tether mass that joins the dynamics when the winch locks may lie
+#: inside the stage, on the straight line the paid-out tether was drawn on: it must leave
+#: the stage before it can touch it, else its penetration would expel it explosively).
+CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE = 0, 1, 2
+
+#: Integer episode state, one int64 array; these name its slots.
+E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
+N_EV = 5
 
 #: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
-#: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (state.CONTACT_*);
+#: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (CONTACT_*);
 #: c_contact (N, K): contact damping (N s/m).  Mass, w, contact of the tether's lumped
 #: masses change when the winch locks.
 BodyData = namedtuple("BodyData", "x v w mass contact_mask c_contact")
@@ -37,15 +49,6 @@ TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom")
 #: (N, K) (>= 0), contact_pt (N, 3, K) friction, lock_p (P, K).
 WarmStart = namedtuple("WarmStart", "grid_ph grid_pv link_p contact_pn contact_pt lock_p")
 
-#: The sensor (``core.sensing``): rng (K,) uint64 its generator's state; buf (B, C, K)
-#: the last B measurements, taken (B, K) the step each was taken at (-1: none), head
-#: (K,) the slot of the next one.
-SensorData = namedtuple("SensorData", "rng buf taken head")
-
-#: The closing policy's memory (``core.policies``): prev_zrel (K,) the last sensed z_rel
-#: (m), has_prev (K,) uint8.
-PolicyData = namedtuple("PolicyData", "prev_zrel has_prev")
-
 #: The contacts' broad phase (``broadphase``): point (N, 3, K) the body-frame point (m) of
 #: each body's last exact test, dist (N, K) its signed distance to the target there (m; 0:
 #: none yet); tests (K,) exact tests made, skips (K,) tests skipped (mode check: that
@@ -53,11 +56,31 @@ PolicyData = namedtuple("PolicyData", "prev_zrel has_prev")
 #: int64 counts.
 BroadData = namedtuple("BroadData", "point dist tests skips misses")
 
-#: Per lane: events (N_EV, K) int64 (state.E_*); close_threshold (K,): the closing
+#: Per lane: events (N_EV, K) int64 (E_*); close_threshold (K,): the closing
 #: displacement d_c of the episode (m); contact_count (K,): body-steps in contact;
-#: max_penetration (K,) (m); broad: the contacts' broad phase.
+#: max_penetration (K,) (m); sensor: the sensor's buffer and generator
+#: (``sensing.SensorData``); policy: the closing policy's memory (``policy.PolicyData``);
+#: broad: the contacts' broad phase.
 Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
                           "contact_count max_penetration broad")
+
+
+def new_events(closing_armed: bool = True, tether_locked: bool = False) -> np.ndarray:
+    """A fresh events array: step 0, closing armed (or not), closing step -1."""
+    ev = np.zeros(N_EV, dtype=np.int64)
+    ev[E_CLOSING_ARMED] = 1 if closing_armed else 0
+    ev[E_CLOSING_STEP] = -1
+    ev[E_TETHER_LOCKED] = 1 if tether_locked else 0
+    return ev
+
+
+def new_warm_start(n_grid: int, n_links: int, n_bodies: int, n_pairs: int) -> WarmStart:
+    """A zero warm start of one episode (no lane axis): n_grid x n_grid nodes, n_links
+    other threads, n_bodies bodies, n_pairs drawstring pairs."""
+    return WarmStart(grid_ph=np.zeros((n_grid, max(n_grid - 1, 0))),
+                     grid_pv=np.zeros((max(n_grid - 1, 0), n_grid)), link_p=np.zeros(n_links),
+                     contact_pn=np.zeros(n_bodies), contact_pt=np.zeros((n_bodies, 3)),
+                     lock_p=np.zeros(n_pairs))
 
 
 def _lanes(a, dtype=np.float64) -> np.ndarray:
@@ -66,10 +89,9 @@ def _lanes(a, dtype=np.float64) -> np.ndarray:
 
 
 def one_lane(bodies, links, drawstring, target_body, close_threshold: float, events,
-             solver, sensor_slots: int, sensor_seed: int) -> Data:
+             warm, sensor_slots: int, sensor_seed: int) -> Data:
     """Data with one lane from an episode's parts (fresh arrays; diagnostics at zero);
     a sensor buffer of ``sensor_slots`` measurements and its generator's seed."""
-    from ..sensing import N_CHANNELS
     n_bodies = np.shape(bodies.x)[0]
     return Data(
         bodies=BodyData(x=_lanes(bodies.x), v=_lanes(bodies.v), w=_lanes(bodies.w),
@@ -83,16 +105,11 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
         target=TargetData(pos=_lanes(target_body.pos), quat=_lanes(target_body.quat),
                           vel=_lanes(target_body.vel), omega=_lanes(target_body.omega),
                           ang_mom=_lanes(target_body.ang_mom)),
-        warm=WarmStart(grid_ph=_lanes(solver.grid_ph), grid_pv=_lanes(solver.grid_pv),
-                       link_p=_lanes(solver.link_p), contact_pn=_lanes(solver.contact_pn),
-                       contact_pt=_lanes(solver.contact_pt), lock_p=_lanes(solver.lock_p)),
+        warm=WarmStart(*(_lanes(a) for a in warm)),
         events=_lanes(events, np.int64),
         close_threshold=np.array([float(close_threshold)]),
-        sensor=SensorData(rng=np.array([sensor_seed], dtype=np.uint64),
-                          buf=np.zeros((sensor_slots, N_CHANNELS, 1)),
-                          taken=np.full((sensor_slots, 1), -1, dtype=np.int64),
-                          head=np.zeros(1, dtype=np.int64)),
-        policy=PolicyData(prev_zrel=np.zeros(1), has_prev=np.zeros(1, dtype=np.uint8)),
+        sensor=new_sensor_data(sensor_slots, sensor_seed),
+        policy=new_policy_data(),
         contact_count=np.zeros(1, dtype=np.int64), max_penetration=np.zeros(1),
         broad=BroadData(point=np.zeros((n_bodies, 3, 1)), dist=np.zeros((n_bodies, 1)),
                         tests=np.zeros(1, dtype=np.int64), skips=np.zeros(1, dtype=np.int64),
@@ -128,6 +145,12 @@ def take(data: Data, lanes) -> Data:
     """A new Data of the given lanes, in that order (fresh contiguous arrays)."""
     idx = np.asarray(lanes, dtype=np.int64)
     return _map(data, lambda a: np.ascontiguousarray(a[..., idx]))
+
+
+def lane_of(part, lane: int):
+    """The same part (any namedtuple of per-lane arrays) with every array a view of lane
+    ``lane`` (lane axis dropped)."""
+    return type(part)(*(a[..., lane] for a in part))
 
 
 def lane_count(data: Data) -> int:

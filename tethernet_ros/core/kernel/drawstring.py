@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .state import E_STEP, LOCK_RATCHET
+from .data import E_STEP
+from .model import LOCK_RATCHET
 
 #: Jacobi passes of the lock projection per step
 LOCK_PASSES = 4

@@ -1,15 +1,15 @@
 """The episode's events after each step, per lane: at each measurement the closing policy
-decides from what the chaser senses (``core.sensing``, ``core.policies``); closing starts
+decides from what the chaser senses (``sensing``, ``policy``); closing starts
 (and the winch locks) when it says so, or when a controller outside the kernel commands it
 (:func:`command_closing`); then the drawstring's locks."""
 from __future__ import annotations
 
 from numba import njit
 
-from ..policies import POLICY_EXTERNAL, decide
-from ..sensing import buffer_measurement, truth_into
+from .data import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
 from .drawstring import update_locks
-from .state import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
+from .policy import POLICY_EXTERNAL, decide
+from .sensing import buffer_measurement, truth_into
 from .tether import lock_tether
 
 

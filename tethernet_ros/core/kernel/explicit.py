@@ -14,11 +14,12 @@ from __future__ import annotations
 from numba import njit
 
 from .contact import contact_forces
+from .data import E_CLOSING_ACTIVE, E_STEP, E_TETHER_LOCKED
 from .drawstring import closing_forces, project_locks
 from .events import closing_events
 from .geometry import quat_to_matrix_lane
+from .model import LOCK_RATCHET
 from .rigid import integrate_target
-from .state import E_CLOSING_ACTIVE, E_STEP, E_TETHER_LOCKED, LOCK_RATCHET
 from .tether import pay_out_tether
 from .threads import gather_thread_forces, grid_thread_forces, link_forces
 

@@ -35,12 +35,13 @@ from numba import njit
 
 from .contact_rows import (clear_inactive_contacts, contact_reaction, prepare_contact_rows,
                            sweep_contacts)
+from .data import E_CLOSING_ACTIVE, E_STEP, E_TETHER_LOCKED
 from .drawstring import closing_forces
 from .events import closing_events
 from .geometry import quat_to_matrix_lane
 from .lock_rows import prepare_lock_rows, sweep_locks
+from .model import LOCK_RATCHET
 from .rigid import integrate_target
-from .state import E_CLOSING_ACTIVE, E_STEP, E_TETHER_LOCKED, LOCK_RATCHET
 from .tether import pay_out_tether
 from .thread_rows import (apply_gathered, prepare_grid_rows, prepare_link_rows, sweep_grid,
                           sweep_links)

@@ -1,9 +1,9 @@
 """The kernel's constant model: what every lane of a batch shares (one design, one
 configuration), in the style of MuJoCo's mjModel: masses and radii that never change,
-stiffnesses, topology, target geometry, the step and the solver's settings.
+stiffnesses, topology, target geometry, the step and the solver's settings.  Each part's
+changing half is in :mod:`data`; :mod:`state` joins the two halves into one episode's parts.
 
-:func:`assemble` builds a Model and a one-lane :class:`~.data.Data` from the named parts of
-one episode (:mod:`state`).  Units: SI (m, s, kg, N).
+:func:`build_model` builds the Model of an episode's parts.  Units: SI (m, s, kg, N).
 """
 from __future__ import annotations
 
@@ -12,7 +12,30 @@ from collections import namedtuple
 import numpy as np
 
 from .broadphase import BROAD_ON
-from .state import Params
+
+#: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair; lock_dist (m);
+#: mu, mu_static: kinetic and static Coulomb friction coefficients; contact_model (index
+#: into CONTACT_MODELS); omega_contact (rad/s), zeta_contact: contact natural frequency
+#: ("frequency" model) and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
+#: sphere about the target's CoM enclosing it (m); tether_lin_density (kg/m), tether_EA (N),
+#: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
+#: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
+#: restitution: the implicit method's coefficient of restitution of a new impact (0: none).
+Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
+                              "contact_model omega_contact zeta_contact tgt_inv_mass tgt_bound "
+                              "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
+                              "lock_model restitution")
+
+#: Modelling choices held as small integers in Params (the index of the name).
+CONTACT_MODELS = ("frequency", "hertz")
+THREAD_DAMPING_MODELS = ("element", "stiffness")
+LOCK_MODELS = ("ratchet", "latch")
+CONTACT_FREQUENCY, CONTACT_HERTZ = 0, 1
+DAMPING_ELEMENT, DAMPING_STIFFNESS = 0, 1
+LOCK_RATCHET, LOCK_LATCH = 0, 1
+
+#: slots of LinkModel.slots: the (non-grid) threads acting on a body
+N_SLOTS = 2
 
 #: radius (N,): contact sphere radius (m); k_contact (N,): the body's contact stiffness
 #: (N/m, "hertz" model).
@@ -23,8 +46,9 @@ BodyModel = namedtuple("BodyModel", "radius k_contact")
 #: y-threads (i, j)-(i+1, j) with kv, cv ((n - 1, n)).  The implicit step's constants
 #: per thread (the grid nodes' masses never change): hconst (n, n - 1, 4) and vconst
 #: (n - 1, n, 4) hold k / (h k + c) (1/s), 1 / (h (h k + c)) (1/kg), and the inverse
-#: effective mass taut 1 / (w_a + w_b + gamma) and slack 1 / (w_a + w_b) (kg).
-GridModel = namedtuple("GridModel", "n rest kh ch kv cv hconst vconst")
+#: effective mass taut 1 / (w_a + w_b + gamma) and slack 1 / (w_a + w_b) (kg), None in an
+#: episode's part (``state``) until :func:`build_model` computes them.  n = 0: no grid.
+GridModel = namedtuple("GridModel", "n rest kh ch kv cv hconst vconst", defaults=(None, None))
 
 #: Other threads (corner threads, main-tether segments): pairs (M, 2) of bodies; slots
 #: (N, N_SLOTS) the threads acting on each body (or -1), signs (N, N_SLOTS) +1 where the
@@ -34,8 +58,8 @@ LinkModel = namedtuple("LinkModel", "pairs slots signs")
 #: The drawstring: pairs (P, 2) of adjacent ring bodies.
 RingModel = namedtuple("RingModel", "pairs")
 
-#: Sensing and the closing policy (``core.sensing``, ``core.policies``): policy (index
-#: into policies.POLICIES); period: steps between measurements (the control period);
+#: Sensing and the closing policy (``sensing``, ``policy``): policy (index
+#: into policy.POLICIES); period: steps between measurements (the control period);
 #: latency (steps); the net's reference point: the mean of ref_nodes weighted by
 #: ref_weights (kg, or 1), over ref_total; target_position (sensing.TARGET_*) and the
 #: planned target distance planned_z (m); noise: sigma_position (m), sigma_attitude (rad),
@@ -60,6 +84,13 @@ Model = namedtuple("Model", "bodies grid links ring tether target control params
                             "broadphase", defaults=(BROAD_ON,))
 
 
+def steps_every(rate_hz: float, dt: float) -> int:
+    """Steps between events at ``rate_hz`` (Hz) for a step of ``dt`` (s): the nearest whole
+    number, at least 1.  The one home of this conversion (the control period, metrics,
+    traces, publishing, markers)."""
+    return max(1, int(round(1.0 / (rate_hz * dt))))
+
+
 def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
     """(..., 4) per grid thread: k / (h k + c), 1 / (h (h k + c)), the inverse effective
     mass taut and slack (the implicit step's constants; see ``implicit``)."""
@@ -76,10 +107,12 @@ def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
     return out
 
 
-def build_model(bodies, grid, links, drawstring, tether, target_body, control: ControlModel,
+def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel, target_body,
+                control: ControlModel,
                 params: Params, iterations: int, broadphase: int = BROAD_ON) -> Model:
-    """The constant model of an episode's parts (``state``); ``broadphase`` the contacts'
-    broad phase mode (``broadphase.BROADPHASE_MODES``)."""
+    """The constant model of an episode's parts (``state``): each part's constant half, the
+    grid's step constants for the step ``params.dt``; ``broadphase`` the contacts' broad
+    phase mode (``broadphase.BROADPHASE_MODES``)."""
     n = grid.n
     w = np.asarray(bodies.w, dtype=np.float64)
     h = float(params.dt)
@@ -95,7 +128,7 @@ def build_model(bodies, grid, links, drawstring, tether, target_body, control: C
                          k_contact=np.ascontiguousarray(bodies.k_contact, dtype=np.float64)),
         grid=GridModel(n=int(n), rest=float(grid.rest), kh=grid.kh, ch=grid.ch, kv=grid.kv,
                        cv=grid.cv, hconst=hconst, vconst=vconst),
-        links=LinkModel(pairs=links.pairs, slots=links.node_links, signs=links.node_sign),
+        links=LinkModel(pairs=links.pairs, slots=links.slots, signs=links.signs),
         ring=RingModel(pairs=drawstring.pairs),
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
                            winch=int(tether.winch)),

@@ -8,7 +8,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..sensing import N_CHANNELS
+from .sensing import N_CHANNELS
 
 #: Row components of a thread or lock row: unit direction (x, y, z), bias b (m/s),
 #: compliance gamma (1/kg), 1 / (w_a + w_b + gamma) (kg).
@@ -28,7 +28,7 @@ LockRows = namedtuple("LockRows", "normal b ik")
 #: at (i + 1) n + j); EF (M, 3, K): force of each other thread on its first end; pair_f
 #: (P, 3, K), acc (N, 3, K), lock_count (N, K), lock_sep (P, 3, K): drawstring scratch;
 #: R (3, 3, K): the target's rotation matrix; Lb (3, K): its body angular momentum;
-#: meas (C,): a measurement being taken (``core.sensing``).
+#: meas (C,): a measurement being taken (``sensing``).
 Scratch = namedtuple("Scratch", "F H U EF pair_f acc lock_count lock_sep R Lb "
                                 "grid_h grid_v links contacts locks meas")
 

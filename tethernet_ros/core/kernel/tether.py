@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .state import CONTACT_ONCE_OUTSIDE, DAMPING_ELEMENT
+from .data import CONTACT_ONCE_OUTSIDE
+from .model import DAMPING_ELEMENT
 
 
 @njit(cache=True, inline='always', error_model='numpy')

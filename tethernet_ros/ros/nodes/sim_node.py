@@ -39,7 +39,8 @@ import time
 
 from rclpy.node import Node
 
-from ...core.episode import CaptureSimulation, episode_result, run_simulation, steps_every
+from ...core.episode import CaptureSimulation, episode_result, run_simulation
+from ...core.kernel.model import steps_every
 from .. import conversions as conv
 from ..loop import ControllerConflict, ControllerTimeout, LoopFailure, episode_scenario, \
     kernel_config, runs_in_lockstep, step_time_summary, truth_of
