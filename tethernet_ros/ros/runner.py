@@ -95,9 +95,8 @@ def run_node(factory, args=None, threads: int = 1, exit_now: bool = True,
     """Init rclpy, build the node with ``factory()``, spin it until SIGINT, SIGTERM or
     shutdown, then ``node.close()`` (if it has one).  ``threads`` > 1: a multi-threaded
     executor; ``events``: rclpy's C++ events executor (rclpy.experimental), for the nodes
-    on the lockstep loop's path whose callbacks are short (the sensor and the actuator:
-    a loop step's messages cost 1.0-1.8 ms there against 2.8-3.9 ms with the Python
-    single-threaded executor, measured side by side; docs/ros.md).  The process exit status: 0 on a
+    on the lockstep loop's path (sim, sensor, actuator): a control step costs 1.9-2.8 ms
+    with it against 2.5-3.6 ms with the Python single-threaded executor (docs/ros.md).  The process exit status: 0 on a
     clean shutdown, 1 with one line on stderr if the node failed; with ``exit_now`` (a
     node's process) the process ends with it at once (:func:`exit_process`), otherwise it
     is returned."""
