@@ -7,7 +7,9 @@ step at 2 ms instead of 1 ms, about twice as fast; docs/studies/step.md found it
 statistics within every 95 % interval of the reference (P*_s, 200 samples per reference
 design) and mean T within 0.03 %, but the method's energy invariant does not hold at 2 ms,
 so it is not the default and no claim rests on it: the optimiser may search with it, and
-races and validates at ``reference`` (docs/optimizer.md).
+races and validates at ``reference`` (docs/optimizer.md).  On the Cases' own designs
+(docs/studies/fidelity.md) it agrees on Case 1's region but not in Case 2's fast corner
+(V_z = 10 m/s), where its P*_s is 11 points lower: not for Case 2 searches yet.
 
 Exploration is defined only relative to the step that study measured: it needs the
 implicit method (``integrator: implicit``) at the reference step (``dt: 0``,
