@@ -287,7 +287,10 @@ def test_capture_action_feedback_and_result(suite):
         assert r.seed == 3 and r.settled_cqi == ref.settled_cqi        # bit for bit
         assert r.completion_time == ref.completion_time and r.success == ref.success
         assert Path(res.bag_path).name == "action_seed3" and Path(res.bag_path).is_dir()
-        # feedback while it ran: sim time rising to the end, the CQI of each state
+        # feedback while it ran: sim time rising to the end, the CQI of each state (the
+        # last feedback and the result travel on different topics: either may come first)
+        assert user.graph.spin_until(lambda: bool(user.feedback) and user.feedback[-1].sim_time
+                                     >= r.completion_time, timeout=10), user.feedback
         assert len(user.feedback) >= 2
         times = [f.sim_time for f in user.feedback]
         assert times == sorted(times) and times[-1] == ref.completion_time
