@@ -426,7 +426,6 @@ class CaptureNode(Node):
         # (runner.exit_process ends the other threads with it)
         if self._busy.acquire(timeout=3.0):
             self._busy.release()
-        self._action.destroy()
         ep = self.episode
         if ep is not None and ep.writer is not None:
             ep.writer.abort(SHUTDOWN)
@@ -434,9 +433,11 @@ class CaptureNode(Node):
             self._rec_executor.shutdown(timeout_sec=1.0)
         except Exception:  # noqa: BLE001
             pass
-        # the recorder thread must have left rcl before the process exits: a thread still
-        # inside it when the interpreter finalizes aborts the process (SIGABRT)
+        # the recorder thread must have left rcl before anything of the node is destroyed
+        # (the action server destroyed while it waited crashed the process, 2 of 32 runs
+        # under ros2 launch) and before the process exits
         self._rec_thread.join(timeout=2.0)
+        self._action.destroy()
         self.recorder.destroy_node()
 
 
