@@ -45,8 +45,7 @@ class SensorNode(Node):
         self.frame_id = param(self, "frame_id")
         self._warm_up()
         self.pub_measurement = self.create_publisher(Measurement, t("measurement"),  # WATCHED
-                                                     alive_qos(state_qos(int(param(self, "queue_depth"))),
-                                                               ALIVE_LEASE_S))
+                                                     alive_qos(sq, ALIVE_LEASE_S))
         self.pub_pose = self.create_publisher(PoseWithCovarianceStamped,
                                               t("sensed_target_pose"), sq)
         self.pub_twist = self.create_publisher(TwistWithCovarianceStamped,

@@ -81,7 +81,7 @@ class SimNode(Node):
         t = lambda k: topic(node, k)  # noqa: E731
         # (its liveliness shows the capture node that this node is alive: names.WATCHED)
         self.pub_state = node.create_publisher(NetState, t("net_state"),
-                                               alive_qos(state_qos(depth), ALIVE_LEASE_S))
+                                               alive_qos(sq, ALIVE_LEASE_S))
         self.pub_pose = node.create_publisher(PoseStamped, t("target_pose"), sq)
         self.pub_clock = node.create_publisher(Clock, t("clock"), sq)
         self.pub_markers = node.create_publisher(MarkerArray, t("markers"), sq)
@@ -322,7 +322,8 @@ class SimNode(Node):
                  f"wall {result.wall_time:.2f} s")
 
     def _check_deciders(self) -> None:
-        """Raise ControllerConflict if two publishers decided in this episode."""
+        """Raise ControllerConflict if a second decider was heard in this episode (another
+        controller name, or a step decided twice)."""
         with self._lock:
             deciders, twice = sorted(self._deciders), self._twice
         if len(deciders) > 1 or twice is not None:
