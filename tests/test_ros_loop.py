@@ -224,6 +224,9 @@ def test_two_deciders_abort_the_episode_and_replay_flags_them(suite, tmp_path):
         # the second decider publishes and listens: both reach the graph before the capture
         listeners = lambda: suite._node.count_subscribers(TOPICS["measurement"])  # noqa: E731
         assert suite.spin_until(lambda: deciders() >= 2 and listeners() >= 3, 60)
+        # this process's graph is not the sensor's: give every participant's discovery of
+        # the new node time to settle (the sensor waits only for the subscribers it sees)
+        suite.spin_until(lambda: False, 3.0)
         with pytest.raises(RosCaptureError, match=f"^ABORTED: {TWO_CONTROLLERS}: 2 controllers"
                            ) as err:
             suite.capture(DESIGN, SEED, bag_name="loop_two_deciders")
