@@ -19,6 +19,7 @@ setup(
     maintainer_email="maintainer@tethernet.dev",
     python_requires=">=3.10",
     packages=find_packages(include=[PACKAGE, PACKAGE + ".*", "optimizer", "optimizer.*"]),
+    package_data={PACKAGE: ["data/targets/*.stl"]},
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + PACKAGE]),
         ("share/" + PACKAGE, ["package.xml"]),
@@ -28,7 +29,7 @@ setup(
     # Runtime dependencies are pinned in requirements*.txt (pip) and package.xml (rosdep);
     # not repeated here so that colcon builds do not try to resolve them with setuptools.
     install_requires=["setuptools"],
-    zip_safe=True,
+    zip_safe=False,
     entry_points={
         "console_scripts": [
             "tethernet = tethernet_ros.cli:main",

@@ -80,7 +80,8 @@ def zenit_mesh(sections: int = 128, skirt: bool = False):
     import numpy as np
     import trimesh
 
-    from tethernet_ros.core.target import Target, TargetConfig
+    from tethernet_ros.core.shapes import target_shape
+    from tethernet_ros.core.target import TargetConfig
 
     z = ZENIT
     R, L, h, r0, r1 = z["R"], z["L"], z["h"], z["r0"], z["r1"]
@@ -98,7 +99,7 @@ def zenit_mesh(sections: int = 128, skirt: bool = False):
 
     def to_body(m):
         # rotation z -> x maps the axial coordinate z to +x: (x, y, z) = (z, y, -x)
-        m.apply_translation([-Target(TargetConfig(nozzle=True)).com_offset, 0.0, 0.0])
+        m.apply_translation([-target_shape(TargetConfig(nozzle=True)).com_offset, 0.0, 0.0])
         return m
 
     mesh = to_body(revolve(prof))
@@ -849,7 +850,8 @@ def main(argv=None):
 
     import numpy as np
 
-    from tethernet_ros.core.target import Target, TargetConfig
+    from tethernet_ros.core.shapes import target_shape
+    from tethernet_ros.core.target import TargetConfig
 
     print("machine:", _cpu_name(), "| numpy", np.__version__)
     kernels = build_kernels()
@@ -892,7 +894,7 @@ def main(argv=None):
                   f"parts' volume / mesh {sum(p.volume for p in p1) / env.volume:.4f}")
 
     # -- queries -----------------------------------------------------------------------
-    tgt = Target(TargetConfig(nozzle=True))
+    tgt = target_shape(TargetConfig(nozzle=True))
     verts, offsets = tgt.packed_polygons()
     analytic = (tgt.cylinder(), verts, offsets)
     measure_case("zenit", zen, zen_parts, kernels, args, report["rows"],

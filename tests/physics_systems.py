@@ -7,7 +7,7 @@ from tethernet_ros.core import kernel as kn
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.scenario import Scenario, ideal_control
-from tethernet_ros.core.target import Target
+from tethernet_ros.core.shapes import target_shape
 
 
 def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
@@ -33,8 +33,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
         for body, sign in ((a, 1.0), (b, -1.0)):
             slots[body, used[body]], signs[body, used[body]] = m, sign
             used[body] += 1
-    target = Target(cfg.target)
-    verts, offsets = target.packed_polygons()
+    target = target_shape(cfg.target)
     params = kn.Params(dt=dt, close_force=0.0, lock_dist=1.0,
                        mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
                        contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
@@ -59,8 +58,7 @@ def particle_system(x, v, mass, links, stiffness, damping, rest=None, dt=1e-4,
         target_body=kn.TargetBody(pos=np.array([0.0, 0.0, target_distance]),
                                   quat=np.array([1.0, 0, 0, 0]), vel=np.zeros(3), omega=np.zeros(3),
                                   ang_mom=np.zeros(3),
-                                  inertia=target.inertia.copy(), cyl=target.cylinder(), verts=verts,
-                                  offsets=offsets),
+                                  inertia=target.inertia.copy(), geometry=target.geometry()),
         params=params, events=kn.new_events(closing_armed=False, tether_locked=True),
         warm=kn.new_warm_start(0, nl, nb, 0),
         dt=dt, stable_step=dt, net_nodes=np.arange(nb, dtype=np.int64),

@@ -7,7 +7,8 @@ import pytest
 from tethernet_ros.core.design import (REFERENCE_DESIGNS, Design, DesignError, load_design)
 from tethernet_ros.core.metrics import (capture_quality_index, capture_verdict,
                                         hull_volume_area, wilson_interval)
-from tethernet_ros.core.target import Target, TargetConfig
+from tethernet_ros.core.shapes import target_shape
+from tethernet_ros.core.target import TargetConfig
 
 
 @pytest.mark.parametrize("name, mass", [("baseline", 5.31), ("suboptimal", 29.52), ("mass-min", 7.53)])
@@ -58,7 +59,7 @@ def test_load_design_errors(tmp_path):
 
 
 def test_target_properties_analytic_and_mesh():
-    t = Target()
+    t = target_shape(TargetConfig())
     R, L = 1.95, 10.4
     assert t.volume == pytest.approx(math.pi * R * R * L)
     assert t.area == pytest.approx(2 * math.pi * R * R + 2 * math.pi * R * L)
@@ -70,7 +71,7 @@ def test_target_properties_analytic_and_mesh():
 
 
 def test_target_with_nozzle_consistent_with_mesh():
-    t = Target(TargetConfig(nozzle=True))
+    t = target_shape(TargetConfig(nozzle=True))
     mesh = t.trimesh()
     assert mesh.volume == pytest.approx(t.volume, rel=2e-3)
     # the concatenated meshes both carry the shared disk, which is inside the union
@@ -82,7 +83,7 @@ def test_target_with_nozzle_consistent_with_mesh():
 
 
 def test_signed_distance_of_cylinder():
-    t = Target()
+    t = target_shape(TargetConfig())
     d, n = t.signed_distance([0.0, 3.0, 0.0])
     assert d == pytest.approx(3.0 - 1.95) and np.allclose(n, [0, 1, 0])
     d, n = t.signed_distance([6.2, 0.0, 0.5])
@@ -98,7 +99,7 @@ def _cube(a, centre=(0, 0, 0), n=5):
 
 
 def test_cqi_of_known_shapes():
-    t = Target()
+    t = target_shape(TargetConfig())
     Vt, St, Lc = t.volume, t.area, t.min_surface_distance
     # a cube of side 4 m centred on the target
     pts = _cube(4.0)

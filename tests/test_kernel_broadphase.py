@@ -115,10 +115,10 @@ def test_the_bound_holds_on_recomputed_distances(cfg):
         R = kn.quat_to_matrix(np.ascontiguousarray(d.target.quat[:, 0]))
         for i in np.flatnonzero(d.broad.dist[:, 0] != 0.0):
             point = np.ascontiguousarray(d.broad.point[i, :, 0])
-            cached, _ = kn.target_signed_distance(point, tg.cyl, tg.verts, tg.offsets)
+            cached, _ = kn.target_signed_distance(point, tg.geometry)
             assert abs(cached - d.broad.dist[i, 0]) <= 1e-12
             b = R.T @ (d.bodies.x[i, :, 0] - d.target.pos[:, 0])
-            now, _ = kn.target_signed_distance(b, tg.cyl, tg.verts, tg.offsets)
+            now, _ = kn.target_signed_distance(b, tg.geometry)
             moved = float(np.linalg.norm(b - point))
             assert now >= cached - moved - 1e-9, (sim.step, i)
             checked += 1

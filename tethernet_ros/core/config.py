@@ -236,6 +236,7 @@ class SimConfig:
         d = asdict(self)
         d["closing_indices"] = list(self.closing_indices)
         d["tumble"] = self.tumble.to_dict()
+        d["target"] = self.target.to_dict()
         return d
 
     @classmethod

@@ -24,7 +24,7 @@ from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
 from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses, other_threads,
                      stowed_state, thread_damping)
 from .noise import NoiseSample, check_orientation_axis, corner_velocities
-from .target import Target
+from .shapes import Shape, target_shape
 
 
 @dataclass(frozen=True)
@@ -118,7 +118,7 @@ class Scenario:
 
     design: Design
     config: SimConfig
-    target: Target
+    target: Shape
     bodies: kn.Bodies
     grid: kn.GridModel
     links: kn.Links
@@ -242,8 +242,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     ring_pairs = np.array([(ring[q], ring[(q + 1) % len(ring)]) for q in range(len(ring))],
                           dtype=np.int64)
 
-    target = Target(cfg.target)
-    verts, offsets = target.packed_polygons()
+    target = target_shape(cfg.target)
     quat, omega, ang_mom = initial_attitude(world, target.inertia)
     net_nodes = np.arange(lay.n_net, dtype=np.int64)
     sc = Scenario(
@@ -260,8 +259,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
                               links=other.tether_links, centre=lay.centre, winch=lay.chaser),
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
-            ang_mom=ang_mom, inertia=target.inertia.copy(), cyl=target.cylinder(), verts=verts,
-            offsets=offsets),
+            ang_mom=ang_mom, inertia=target.inertia.copy(), geometry=target.geometry()),
         params=kernel_params(design, cfg, th, target.bounding_radius, omega_1),
         close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),

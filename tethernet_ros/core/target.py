@@ -1,201 +1,175 @@
-"""The Zenit-2 second stage: primitive collision geometry and rigid-body properties.
+"""The target's settings: which object the net is shot at (docs/model.md §1, §15,
+docs/targets.md).
 
-The target is axisymmetric about its body x axis.  Its collision geometry is a union of
-convex solids of revolution, each given by its meridional polygon: vertices (a, r) with a
-the axial coordinate (m, body frame, origin at the centre of mass) and r the signed radial
-coordinate (m), symmetric about r = 0.  The signed distance of a point is the minimum over
-the solids of the 2D polygon distance in its meridional plane (exact outside the body).
-
-Defaults (docs/model.md §1): cylinder of diameter 3.9 m and length 10.4 m, dry mass 8300 kg,
-uniform density.  An engine-nozzle frustum may be added behind the -x end.
+The default is the source's Zenit-2 second stage as exact solids of revolution (a cylinder
+of diameter 3.9 m and length 10.4 m, dry mass 8300 kg, uniform density, an optional engine
+nozzle behind its -x end): the ``revolution`` shape kind, whose fields are ``diameter``,
+``length`` and the ``nozzle*`` ones.  Any other target is a closed triangle mesh (the
+``mesh`` kind): a name of the catalogue (``core.shapes.catalogue``) or a file that trimesh
+reads (STL, OBJ, PLY, GLB/glTF, OFF), with its mass and, where measured, its centre of
+mass and inertia tensor.  The shapes themselves are built by ``core.shapes.target_shape``.
 """
 from __future__ import annotations
 
+import hashlib
 import math
-from dataclasses import dataclass
-from functools import cached_property
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
-import numpy as np
+#: the default target, the only one of the ``revolution`` kind
+DEFAULT_NAME = "zenit-2"
+#: mass of the default (kg): the Zenit-2 second stage's dry mass (docs/model.md §1)
+ZENIT_MASS = 8300.0
+#: the fields of the revolution kind (a results file written before shapes had only these)
+_REVOLUTION_FIELDS = ("diameter", "length", "mass", "nozzle", "nozzle_length",
+                      "nozzle_base_radius", "nozzle_exit_radius")
+#: the largest plausible target mass (kg): the International Space Station's, about 4.2e5
+MAX_MASS = 1e6
 
-from . import detmath
+
+class TargetError(ValueError):
+    """A target setting is outside its allowed range (the message names the field)."""
 
 
 @dataclass(frozen=True)
 class TargetConfig:
-    """Geometry (m) and mass (kg) of the target.  Nozzle dimensions are used only if
-    ``nozzle`` is True: a frustum of length ``nozzle_length`` attached to the -x end cap,
-    radius ``nozzle_base_radius`` at the cap and ``nozzle_exit_radius`` at its exit."""
+    """Geometry (m) and mass (kg) of the target.
+
+    name: 'zenit-2' (the analytic stage), another catalogue name, or a label for ``mesh``;
+    mesh: path of a mesh file ('' for a catalogue name); mesh_sha256: the file's SHA-256
+    (filled in when the target is read; given, the file must match it); units: the file's
+    length unit (m, cm, mm, in, ft); mass: total mass (kg; None: the catalogue's, 8300 for
+    the Zenit-2; a file needs it); com: a measured centre of mass (3 values, m, in the
+    file's frame; () for uniform density); inertia: a measured inertia tensor about that
+    CoM (kg m^2, 6 values Ixx, Iyy, Izz, Ixy, Iyz, Ixz or 9; () for uniform density).
+    Revolution kind only: diameter, length; the nozzle, a frustum of length
+    ``nozzle_length`` behind the -x end cap, radius ``nozzle_base_radius`` at the cap and
+    ``nozzle_exit_radius`` at its exit, used only if ``nozzle`` is True.
+    """
 
     diameter: float = 3.9
     length: float = 10.4
-    mass: float = 8300.0
+    mass: float | None = None
     nozzle: bool = False
     nozzle_length: float = 2.0
     nozzle_base_radius: float = 0.5
     nozzle_exit_radius: float = 1.0
+    name: str = DEFAULT_NAME
+    mesh: str = ""
+    mesh_sha256: str = ""
+    units: str = "m"
+    com: tuple = ()
+    inertia: tuple = ()
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise TargetError(f"target field 'name': got {self.name!r}; must be a non-empty name")
+        mesh = str(self.mesh) if self.mesh else ""
+        object.__setattr__(self, "mesh", mesh)
+        if not mesh and self.name != DEFAULT_NAME:
+            from .shapes import catalogue
+
+            if self.name not in catalogue.CATALOGUE:
+                raise TargetError(f"target field 'name': got {self.name!r}; must be one of "
+                                  f"{[DEFAULT_NAME] + sorted(catalogue.CATALOGUE)} or a label "
+                                  "with a mesh file")
+        if self.mass is None:
+            if mesh:
+                raise TargetError("target field 'mass': a mesh file's target needs its total "
+                                  "mass in kg")
+            if self.name == DEFAULT_NAME:
+                mass = ZENIT_MASS
+            else:
+                from .shapes import catalogue
+
+                mass = catalogue.entry(self.name).mass
+            object.__setattr__(self, "mass", float(mass))
         for name in ("diameter", "length", "mass", "nozzle_length", "nozzle_base_radius",
                      "nozzle_exit_radius"):
             v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"target field '{name}': got {v!r}; must be a finite number > 0")
+            if isinstance(v, bool) or not (isinstance(v, (int, float)) and math.isfinite(v)
+                                           and v > 0):
+                raise TargetError(f"target field '{name}': got {v!r}; must be a finite number > 0")
+        if self.mass > MAX_MASS:
+            raise TargetError(f"target field 'mass': got {self.mass!r}; must be a mass in "
+                              f"(0, {MAX_MASS:g}] kg")
         if self.nozzle and self.nozzle_base_radius > self.diameter / 2:
-            raise ValueError("target field 'nozzle_base_radius': must not exceed the stage radius")
+            raise TargetError("target field 'nozzle_base_radius': must not exceed the stage radius")
+        if self.kind == "mesh" and self.nozzle:
+            raise TargetError("target field 'nozzle': only the analytic Zenit-2 has a nozzle "
+                              "option; a mesh carries its own")
+        if self.kind == "revolution" and (self.com or self.inertia or self.units != "m"):
+            raise TargetError("target fields 'com', 'inertia', 'units': only a mesh's target "
+                              "takes them; the analytic Zenit-2 is uniform, in m")
+        from .shapes.mesh import UNITS
+
+        if self.units not in UNITS:
+            raise TargetError(f"target field 'units': got {self.units!r}; must be one of "
+                              f"{sorted(UNITS)}")
+        for name, sizes in (("com", (0, 3)), ("inertia", (0, 6, 9))):
+            v = getattr(self, name)
+            try:
+                t = tuple(float(c) for c in v)
+            except (TypeError, ValueError):
+                t = None
+            if t is None or len(t) not in sizes or not all(math.isfinite(c) for c in t):
+                raise TargetError(f"target field '{name}': got {v!r}; must be "
+                                  f"{' or '.join(str(s) for s in sizes if s)} finite numbers "
+                                  "(or empty for uniform density)")
+            object.__setattr__(self, name, t)
+        if self.kind == "mesh":
+            path = self.mesh_path
+            if not path.is_file():
+                raise TargetError(f"target field 'mesh': {str(path)!r} is not a file")
+            sha = file_sha256(path)
+            if self.mesh_sha256 and self.mesh_sha256 != sha:
+                raise TargetError(f"target field 'mesh_sha256': {path} has SHA-256 {sha[:12]}..., "
+                                  f"not the recorded {self.mesh_sha256[:12]}...; the file changed")
+            object.__setattr__(self, "mesh_sha256", sha)
+
+    @property
+    def kind(self) -> str:
+        """The shape kind: 'revolution' (the analytic Zenit-2) or 'mesh'."""
+        return "revolution" if self.name == DEFAULT_NAME and not self.mesh else "mesh"
+
+    @property
+    def mesh_path(self) -> Path:
+        """The mesh file (the catalogue's for a catalogue name)."""
+        if self.mesh:
+            return Path(self.mesh).expanduser()
+        from .shapes import catalogue
+
+        return catalogue.mesh_path(catalogue.entry(self.name))
+
+    @classmethod
+    def named(cls, target: str, **overrides) -> TargetConfig:
+        """The configuration of ``--target FILE|NAME``: a catalogue name, or a mesh file
+        (its name the file's stem)."""
+        from .shapes import catalogue
+
+        if target == DEFAULT_NAME or target in catalogue.CATALOGUE:
+            return cls(name=target, **overrides)
+        path = Path(target).expanduser()
+        if not path.suffix:
+            raise TargetError(f"target: got {target!r}; must be one of "
+                              f"{[DEFAULT_NAME] + sorted(catalogue.CATALOGUE)} or "
+                              "a mesh file (.stl, .obj, .ply, .glb, .gltf, .off)")
+        return cls(name=overrides.pop("name", path.stem), mesh=str(path), **overrides)
+
+    def to_dict(self) -> dict:
+        """The settings as plain values; the revolution kind's new fields at their defaults
+        are left out, so that a default target keeps the run keys it had before shapes."""
+        d = asdict(self)
+        d["com"], d["inertia"] = list(self.com), list(self.inertia)
+        if self.kind == "revolution":
+            return {k: d[k] for k in _REVOLUTION_FIELDS}
+        return d
 
 
-class Target:
-    """Derived properties of a :class:`TargetConfig` (all in the body frame, about the CoM)."""
-
-    def __init__(self, config: TargetConfig | None = None):
-        self.config = config or TargetConfig()
-
-    # -- solids in the body frame with origin at the geometric centre of the cylinder --
-    def _raw_polygons(self) -> list[np.ndarray]:
-        c = self.config
-        R, L = c.diameter / 2, c.length
-        polys = [np.array([[-L / 2, -R], [L / 2, -R], [L / 2, R], [-L / 2, R]])]
-        if c.nozzle:
-            a0, a1 = -L / 2, -L / 2 - c.nozzle_length
-            r0, r1 = c.nozzle_base_radius, c.nozzle_exit_radius
-            polys.append(np.array([[a1, -r1], [a0, -r0], [a0, r0], [a1, r1]]))
-        return polys
-
-    def _revolved_segments(self) -> list[tuple[float, float, float, float]]:
-        """The solids as frusta (a0, a1, r0, r1) about the cylinder's centre (m): axial
-        ends a0 < a1 and the radius at each end."""
-        c = self.config
-        R, L = c.diameter / 2, c.length
-        segs = [(-L / 2, L / 2, R, R)]
-        if c.nozzle:
-            segs.append((-L / 2 - c.nozzle_length, -L / 2, c.nozzle_exit_radius,
-                         c.nozzle_base_radius))
-        return segs
-
-    @cached_property
-    def _mass_integrals(self) -> tuple[float, float, float, float]:
-        """Per unit density, over all solids: volume (m^3), first axial moment (m^4) and the
-        second moments about the axis and about a transverse axis through the cylinder's
-        centre (m^5).  Three-point Gauss-Legendre per frustum, exact for these integrands
-        (polynomials of degree 4 in a), in IEEE operations only (no mesh, no BLAS)."""
-        g = math.sqrt(0.6)
-        nodes, weights = (-g, 0.0, g), (5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0)
-        vol = first = axial = transverse = 0.0
-        for a0, a1, r0, r1 in self._revolved_segments():
-            half, mid = 0.5 * (a1 - a0), 0.5 * (a1 + a0)
-            for t, w in zip(nodes, weights):
-                a = mid + half * t
-                r = r0 + (r1 - r0) * (t + 1.0) * 0.5
-                r2 = r * r
-                wh = w * half * math.pi
-                vol += wh * r2
-                first += wh * r2 * a
-                axial += wh * 0.5 * r2 * r2
-                transverse += wh * r2 * (0.25 * r2 + a * a)
-        return vol, first, axial, transverse
-
-    @cached_property
-    def com_offset(self) -> float:
-        """Axial position (m) of the centre of mass from the cylinder's centre."""
-        if not self.config.nozzle:
-            return 0.0
-        vol, first, _, _ = self._mass_integrals
-        return first / vol
-
-    @cached_property
-    def polygons(self) -> list[np.ndarray]:
-        """Meridional polygons (a, r) relative to the centre of mass (m)."""
-        return [p - np.array([self.com_offset, 0.0]) for p in self._raw_polygons()]
-
-    @cached_property
-    def volume(self) -> float:
-        """V_t (m^3)."""
-        c = self.config
-        R, L = c.diameter / 2, c.length
-        v = math.pi * R * R * L
-        if c.nozzle:
-            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
-            v += math.pi * h / 3 * (r0 * r0 + r0 * r1 + r1 * r1)
-        return v
-
-    @cached_property
-    def area(self) -> float:
-        """S_t (m^2): outer surface of the union (the shared disk is interior)."""
-        c = self.config
-        R, L = c.diameter / 2, c.length
-        s = 2 * math.pi * R * R + 2 * math.pi * R * L
-        if c.nozzle:
-            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
-            s += (math.pi * (r0 + r1) * detmath.hypot(h, r1 - r0) + math.pi * r1 * r1
-                  - math.pi * r0 * r0)
-        return s
-
-    @cached_property
-    def inertia(self) -> np.ndarray:
-        """Principal moments (Ixx, Iyy, Izz) about the CoM (kg m^2), uniform density."""
-        c = self.config
-        R, L, M = c.diameter / 2, c.length, c.mass
-        if not c.nozzle:
-            R2 = R * R
-            return np.array([0.5 * M * R2, M * (3 * R2 + L * L) / 12, M * (3 * R2 + L * L) / 12])
-        vol, _, axial, transverse = self._mass_integrals
-        density = M / vol
-        d = self.com_offset
-        i_t = density * transverse - M * d * d   # parallel-axis shift to the CoM
-        return np.array([density * axial, i_t, i_t])
-
-    @cached_property
-    def bounding_radius(self) -> float:
-        """Radius (m) of a sphere about the CoM enclosing the body."""
-        return max(detmath.hypot(a, r) for p in self.polygons for a, r in p)
-
-    @cached_property
-    def min_surface_distance(self) -> float:
-        """L_c (m): smallest distance from the CoM to the surface."""
-        return -self.signed_distance(np.zeros(3))[0]
-
-    def cylinder(self) -> np.ndarray:
-        """[axial centre, half length, radius] (m) of the stage's cylinder about the CoM."""
-        c = self.config
-        return np.array([-self.com_offset, c.length / 2, c.diameter / 2])
-
-    def packed_polygons(self) -> tuple[np.ndarray, np.ndarray]:
-        """(vertices (K, 2), offsets (P + 1,)) of the solids other than the cylinder, for
-        the numba kernels."""
-        polys = self.polygons[1:]
-        if not polys:
-            return np.zeros((0, 2)), np.zeros(1, dtype=np.int64)
-        verts = np.ascontiguousarray(np.concatenate(polys), dtype=np.float64)
-        offsets = np.cumsum([0] + [len(p) for p in polys]).astype(np.int64)
-        return verts, offsets
-
-    def signed_distance(self, p_body) -> tuple[float, np.ndarray]:
-        """Signed distance (m, negative inside) of a body-frame point (about the CoM) and
-        the outward unit normal."""
-        from .kernel import target_signed_distance
-
-        verts, offsets = self.packed_polygons()
-        d, n = target_signed_distance(np.asarray(p_body, dtype=float), self.cylinder(), verts, offsets)
-        return float(d), n
-
-    def trimesh(self):
-        """A single trimesh of the target in the body frame about the CoM (for figures,
-        markers and checks; never on an episode's path)."""
-        import trimesh
-
-        c = self.config
-        R, L = c.diameter / 2, c.length
-        rot = trimesh.transformations.rotation_matrix(math.pi / 2, [0, 1, 0])  # z -> x
-        parts = [trimesh.creation.cylinder(radius=R, height=L, sections=256, transform=rot)]
-        if c.nozzle:
-            h, r0, r1 = c.nozzle_length, c.nozzle_base_radius, c.nozzle_exit_radius
-            # frustum as a revolved trapezoid about z, then rotated so +z -> -x
-            prof = np.array([[0.0, 0.0], [r0, 0.0], [r1, h], [0.0, h]])
-            fr = trimesh.creation.revolve(prof, sections=256)
-            T = trimesh.transformations.rotation_matrix(-math.pi / 2, [0, 1, 0])
-            T[:3, 3] = [-L / 2, 0.0, 0.0]
-            fr.apply_transform(T)
-            parts.append(fr)
-        mesh = trimesh.util.concatenate(parts)
-        mesh.apply_translation([-self.com_offset, 0.0, 0.0])
-        return mesh
+def file_sha256(path: Path) -> str:
+    """SHA-256 (hex) of a file's bytes."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()

@@ -212,13 +212,13 @@ _SAMPLES: dict = {}
 
 
 def _target_inertia(target_config):
-    """The target's principal moments (kg m^2; core.target.Target), checked to be a
+    """The target's principal moments (kg m^2; core.shapes.target_shape), checked to be a
     symmetric top (I_y = I_z), which :func:`long_axis_los`'s closed form needs."""
     key = repr(target_config)
     if key not in _INERTIA:
-        from ..core.target import Target
+        from ..core.shapes import target_shape
 
-        inertia = Target(target_config).inertia
+        inertia = target_shape(target_config).inertia
         if inertia[1] != inertia[2]:
             raise ValueError(f"target inertia {inertia.tolist()}: not a symmetric top "
                              "(I_y != I_z); the free-rotation closed form does not apply")

@@ -16,7 +16,9 @@ from .data import (CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE, E_CLOSING_ACTI
                    E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED, N_EV, Data, WarmStart, copy_lane,
                    empty_like, lane_count, new_events, new_warm_start, take)
 from .explicit import advance_explicit
-from .geometry import quat_to_matrix, target_signed_distance
+from .geometry import (SHAPE_KINDS, SHAPE_MESH, SHAPE_REVOLUTION, TargetGeometry, mesh_geometry,
+                       quat_to_matrix, revolution_geometry, target_signed_distance,
+                       target_signed_distances)
 from .implicit import advance_implicit
 from .model import (CONTACT_MODELS, LOCK_MODELS, N_SLOTS, THREAD_DAMPING_MODELS, ControlModel,
                     GridModel, Model, Params, TetherModel)
@@ -28,7 +30,9 @@ __all__ = ["BROADPHASE_MODES", "BROAD_CHECK", "BROAD_OFF", "BROAD_ON",
            "CONTACT_MODELS", "LOCK_MODELS", "THREAD_DAMPING_MODELS", "Data", "Model", "Scratch",
            "advance_explicit", "advance_implicit", "ControlModel", "copy_lane", "empty_like",
            "lane_count", "new_scratch", "take", "WarmStart", "new_warm_start", "quat_to_matrix",
-           "target_signed_distance", "stable_step", "CONTACT_OFF", "CONTACT_ON",
+           "target_signed_distance", "target_signed_distances", "SHAPE_KINDS", "SHAPE_MESH",
+           "SHAPE_REVOLUTION", "TargetGeometry", "mesh_geometry", "revolution_geometry",
+           "stable_step", "CONTACT_OFF", "CONTACT_ON",
            "CONTACT_ONCE_OUTSIDE", "E_CLOSING_ACTIVE", "E_CLOSING_ARMED", "E_CLOSING_STEP",
            "E_STEP", "E_TETHER_LOCKED", "N_EV", "N_SLOTS", "Bodies", "Drawstring", "GridModel",
            "Links", "Params", "TargetBody", "TetherModel", "empty_drawstring", "empty_grid",

@@ -1,9 +1,61 @@
-"""Target geometry for the kernels: signed distances of the target's solids of revolution
-and the rotation matrix of a quaternion.  Lengths in m."""
+"""Target geometry for the kernels: the target's shape as one typed table
+(:data:`TargetGeometry`), its signed distance by one dispatch on the shape's kind
+(:func:`target_sdf`), the signed distance of solids of revolution, and the rotation
+matrix of a quaternion.  Lengths in m, body frame (origin at the centre of mass, axes the
+principal axes).
+"""
 from __future__ import annotations
+
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
+
+from .mesh_sdf import mesh_sdf
+
+#: the shapes' kinds (TargetGeometry.kind is the index): a union of convex solids of
+#: revolution about the body x axis, or a closed triangle mesh (``mesh_sdf``)
+SHAPE_KINDS = ("revolution", "mesh")
+SHAPE_REVOLUTION, SHAPE_MESH = 0, 1
+
+#: The target's shape for the kernels.  kind: index into SHAPE_KINDS; extent (2,): the
+#: half length along body x and the radius about it (m) of a cylinder about the CoM
+#: enclosing the shape (the adaptive policy's prediction).  Revolution: cyl [axial centre,
+#: half length, radius] (m) of the main cylinder, verts (V, 2) and offsets (S + 1,) the
+#: other solids' meridional polygons.  Mesh (``mesh_sdf``): tris (T, 9) the triangles, pn
+#: (T, 7, 3) their features' pseudonormals, the cell grid origin (3,), cell side (m), dims
+#: (3,), per cell far (C,) a lower bound of the distance, start (C + 1,) into cand (K,)
+#: and cdist (K,) the candidate triangles and their distance to the cell's centre; lo, hi
+#: (3,) the mesh's box.  A kind's unused arrays are empty.
+TargetGeometry = namedtuple("TargetGeometry", "kind extent cyl verts offsets tris pn origin cell "
+                                              "dims far start cand cdist lo hi")
+
+
+def revolution_geometry(cyl, verts, offsets) -> TargetGeometry:
+    """The geometry of a union of solids of revolution (no mesh arrays)."""
+    cyl = np.ascontiguousarray(cyl, dtype=np.float64)
+    return TargetGeometry(
+        kind=SHAPE_REVOLUTION, extent=np.array([cyl[1], cyl[2]]), cyl=cyl,
+        verts=np.ascontiguousarray(verts, dtype=np.float64),
+        offsets=np.ascontiguousarray(offsets, dtype=np.int64),
+        tris=np.zeros((0, 9)), pn=np.zeros((0, 7, 3)), origin=np.zeros(3), cell=1.0,
+        dims=np.zeros(3, dtype=np.int64), far=np.zeros(0), start=np.zeros(1, dtype=np.int64),
+        cand=np.zeros(0, dtype=np.int32), cdist=np.zeros(0), lo=np.zeros(3), hi=np.zeros(3))
+
+
+def mesh_geometry(extent, tris, pn, origin, cell, dims, far, start, cand, cdist, lo,
+                  hi) -> TargetGeometry:
+    """The geometry of a closed triangle mesh (no solids of revolution)."""
+    f = np.float64
+    return TargetGeometry(
+        kind=SHAPE_MESH, extent=np.ascontiguousarray(extent, dtype=f), cyl=np.zeros(3),
+        verts=np.zeros((0, 2)), offsets=np.zeros(1, dtype=np.int64),
+        tris=np.ascontiguousarray(tris, dtype=f), pn=np.ascontiguousarray(pn, dtype=f),
+        origin=np.ascontiguousarray(origin, dtype=f), cell=float(cell),
+        dims=np.ascontiguousarray(dims, dtype=np.int64), far=np.ascontiguousarray(far, dtype=f),
+        start=np.ascontiguousarray(start, dtype=np.int64),
+        cand=np.ascontiguousarray(cand, dtype=np.int32), cdist=np.ascontiguousarray(cdist, dtype=f),
+        lo=np.ascontiguousarray(lo, dtype=f), hi=np.ascontiguousarray(hi, dtype=f))
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -87,11 +139,34 @@ def local_sdf(lx, ly, lz, cyl, verts, offsets):
     return best, ga, gr * uy, gr * uz
 
 
+@njit(cache=True, inline='always', error_model='numpy')
+def target_sdf(lx, ly, lz, g):
+    """Signed distance (m, negative inside) and outward unit normal (body frame) of the
+    body-frame point (lx, ly, lz) to the target's shape g (:data:`TargetGeometry`); the one
+    dispatch on the shape's kind."""
+    if g.kind == SHAPE_MESH:
+        return mesh_sdf(lx, ly, lz, g)
+    return local_sdf(lx, ly, lz, g.cyl, g.verts, g.offsets)
+
+
 @njit(cache=True)
-def target_signed_distance(p_local, cyl, verts, offsets):
-    """Signed distance (m) of a body-frame point to the target and the outward normal."""
-    sd, nx, ny, nz = local_sdf(p_local[0], p_local[1], p_local[2], cyl, verts, offsets)
+def target_signed_distance(p_local, g):
+    """Signed distance (m) of a body-frame point to the target's shape g and the outward
+    normal."""
+    sd, nx, ny, nz = target_sdf(p_local[0], p_local[1], p_local[2], g)
     return sd, np.array([nx, ny, nz])
+
+
+@njit(cache=True)
+def target_signed_distances(points, g):
+    """Signed distances (N,) and outward normals (N, 3) of body-frame points (N, 3)."""
+    n = points.shape[0]
+    d = np.empty(n)
+    nrm = np.empty((n, 3))
+    for q in range(n):
+        d[q], nrm[q, 0], nrm[q, 1], nrm[q, 2] = target_sdf(points[q, 0], points[q, 1],
+                                                           points[q, 2], g)
+    return d, nrm
 
 
 @njit(cache=True)

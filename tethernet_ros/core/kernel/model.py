@@ -74,9 +74,9 @@ ControlModel = namedtuple("ControlModel", "policy period latency ref_nodes ref_w
 #: the other threads), centre the net's centre node, winch the body carrying the winch.
 TetherModel = namedtuple("TetherModel", "nodes links centre winch")
 
-#: The target's constants: principal moments of inertia (3,) (kg m^2) and its collision
-#: primitives: cyl [axial centre, half length, radius] (m), verts (V, 2), offsets (S + 1,).
-TargetModel = namedtuple("TargetModel", "inertia cyl verts offsets")
+#: The target's constants: principal moments of inertia (3,) (kg m^2) and its shape
+#: (``geometry.TargetGeometry``).
+TargetModel = namedtuple("TargetModel", "inertia geometry")
 
 #: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step; broadphase:
 #: the contacts' broad phase (index into broadphase.BROADPHASE_MODES; it changes no result).
@@ -133,8 +133,7 @@ def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel,
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
                            winch=int(tether.winch)),
         target=TargetModel(inertia=np.ascontiguousarray(target_body.inertia, dtype=np.float64),
-                           cyl=target_body.cyl, verts=target_body.verts,
-                           offsets=target_body.offsets),
+                           geometry=target_body.geometry),
         control=control, params=params, iterations=int(iterations),
         broadphase=int(broadphase))
 

@@ -75,8 +75,8 @@ def decide(model, data, l, meas) -> bool:
     if ct.policy == POLICY_THRESHOLD:
         return zrel >= threshold
     # adaptive
-    radius = model.target.cyl[2]
-    extent = largest_half_depth(meas, model.target.cyl[1], radius, ct.closing_time)
+    radius = model.target.geometry.extent[1]
+    extent = largest_half_depth(meas, model.target.geometry.extent[0], radius, ct.closing_time)
     if zrel >= threshold + (extent - radius):
         return True
     pd = data.policy
