@@ -4,6 +4,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from ..core.shapes import target_shape
 from ..core.episode import run_episode
 from .common import (add_config_argument, add_design_argument, add_fidelity_argument,
                      add_noise_arguments, add_ros_arguments, check_ros_arguments,
@@ -64,7 +65,7 @@ def run(args) -> int:
     if args.json:
         d = result.to_dict()
         d.update(design=design.to_dict(), design_name=label, via=args.via, bag_path=bag_path,
-                 fidelity=args.fidelity)
+                 fidelity=args.fidelity, target=target_shape(config.target).describe())
         print_json(d)
         return 0
     png = Path(args.png) if args.png else Path("out") / f"capture_{label}_{seed_label}.png"

@@ -24,7 +24,8 @@ SCENARIO_FLAGS = {
     "--tumble-rate": ("tumble", "rate_deg_s"), "--tumble-axis": ("tumble", "axis"),
     "--tumble-phase": ("tumble", "phase_deg"), "--policy": ("policy", "kind"),
     "--net-point": ("sensing", "net_point"), "--sensing-rate": ("sensing", "rate_hz"),
-    "--latency": ("sensing", "latency"),
+    "--latency": ("sensing", "latency"), "--target": ("target", None),
+    "--target-mass": ("target", "mass"), "--target-units": ("target", "units"),
 }
 
 
@@ -80,6 +81,14 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                         "tumble: {rate_deg_s: 2}, sensing: {rate_hz: 50}, policy: {kind: adaptive})")
     g = p.add_argument_group("scenario", "the target's tumble, the sensing and the closing policy "
                              "(docs/model.md §1, §14); over --config and a design file's tumble:")
+    g.add_argument("--target", default=None, metavar="NAME|FILE",
+                   help="the target: zenit-2 (the source's stage, default), a catalogue name "
+                        "(docs/targets.md) or a mesh "
+                        "file (.stl, .obj, .ply, .glb, .gltf, .off; give --target-mass)")
+    g.add_argument("--target-mass", type=float, default=None, metavar="KG",
+                   help="the target's mass (kg; default the catalogue's, 8300 for zenit-2)")
+    g.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
+                   help="the length unit of a --target mesh file (default m)")
     g.add_argument("--tumble-rate", type=float, default=None, metavar="DEG_S",
                    help="the target's initial spin rate in [0, 60] deg/s (0: at rest, the default)")
     g.add_argument("--tumble-axis", default=None, metavar="|".join(TUMBLE_AXES) + "|X,Y,Z",
@@ -147,9 +156,24 @@ def scenario_overrides(args) -> tuple[dict, dict]:
             continue
         if flag == "--tumble-axis":
             v = tumble_axis(v)
+        if flag == "--target":
+            for k, x in target_fields(v).items():
+                values.setdefault(group, {})[k] = x
+                flags[f"{group}.{k}"] = flag
+            continue
         values.setdefault(group, {})[field] = v
         flags[f"{group}.{field}"] = flag
     return values, flags
+
+
+def target_fields(text: str) -> dict:
+    """The TargetConfig fields of a --target value (core.target.target_fields)."""
+    from ..core.target import TargetError, target_fields as fields_of
+
+    try:
+        return fields_of(text)
+    except TargetError as exc:
+        raise UserError(f"--target: {exc}") from None
 
 
 def _design_tumble(args) -> tuple[dict | None, str]:

@@ -74,11 +74,14 @@ def world_for(design: Design, sample: NoiseSample | None,
                  rotation_axis=sample.orientation_axis, **spin)
 
 
-def initial_attitude(world: World, inertia: np.ndarray):
+def initial_attitude(world: World, inertia: np.ndarray, attitude_deg=()):
     """(quaternion, world angular velocity (rad/s), world angular momentum (kg m^2/s)) of
-    the target at the start: the orientation noise's rotation, then the tumble's phase
-    about its axis, spinning at its rate (IEEE operations only)."""
+    the target at the start: the orientation noise's rotation of its configured attitude
+    (``TargetConfig.attitude_deg``), then the tumble's phase about its axis, spinning at
+    its rate (IEEE operations only)."""
     q = rotation_quaternion(world.rotation, world.rotation_axis)
+    if attitude_deg:
+        q = quat_multiply(q, attitude_quaternion(attitude_deg))
     if world.spin_rate == 0.0:
         return q, np.zeros(3), np.zeros(3)
     axis = np.asarray(world.spin_axis, dtype=float)
@@ -91,6 +94,15 @@ def initial_attitude(world: World, inertia: np.ndarray):
     ang_mom = np.array([R[c, 0] * l_body[0] + R[c, 1] * l_body[1] + R[c, 2] * l_body[2]
                         for c in range(3)])
     return q, omega, ang_mom
+
+
+def attitude_quaternion(turns_deg) -> np.ndarray:
+    """Unit quaternion of turns (deg) about the world x, then y, then z axis."""
+    deg = math.pi / 180.0
+    q = rotation_quaternion(turns_deg[0] * deg, "x")
+    for angle, axis in zip(turns_deg[1:], "yz"):
+        q = quat_multiply(rotation_quaternion(angle * deg, axis), q)
+    return q
 
 
 def rotation_quaternion(angle: float, axis: str) -> np.ndarray:
@@ -243,7 +255,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
                           dtype=np.int64)
 
     target = target_shape(cfg.target)
-    quat, omega, ang_mom = initial_attitude(world, target.inertia)
+    quat, omega, ang_mom = initial_attitude(world, target.inertia, cfg.target.attitude_deg)
     net_nodes = np.arange(lay.n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,

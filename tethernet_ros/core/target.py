@@ -42,6 +42,9 @@ class TargetConfig:
     the Zenit-2; a file needs it); com: a measured centre of mass (3 values, m, in the
     file's frame; () for uniform density); inertia: a measured inertia tensor about that
     CoM (kg m^2, 6 values Ixx, Iyy, Izz, Ixy, Iyz, Ixz or 9; () for uniform density).
+    attitude_deg: the target's initial attitude, which face the chaser sees: turns (deg)
+    about the world x, then y, then z axis from the nominal attitude (body axes along the
+    world's: the long axis across the line of sight, the flat-spin axis y up); () none.
     Revolution kind only: diameter, length; the nozzle, a frustum of length
     ``nozzle_length`` behind the -x end cap, radius ``nozzle_base_radius`` at the cap and
     ``nozzle_exit_radius`` at its exit, used only if ``nozzle`` is True.
@@ -60,19 +63,21 @@ class TargetConfig:
     units: str = "m"
     com: tuple = ()
     inertia: tuple = ()
+    attitude_deg: tuple = ()
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
             raise TargetError(f"target field 'name': got {self.name!r}; must be a non-empty name")
         mesh = str(self.mesh) if self.mesh else ""
         object.__setattr__(self, "mesh", mesh)
+        if mesh and self.name == DEFAULT_NAME:          # a file is not the analytic stage
+            object.__setattr__(self, "name", Path(mesh).stem)
         if not mesh and self.name != DEFAULT_NAME:
             from .shapes import catalogue
 
             if self.name not in catalogue.CATALOGUE:
                 raise TargetError(f"target field 'name': got {self.name!r}; must be one of "
-                                  f"{[DEFAULT_NAME] + sorted(catalogue.CATALOGUE)} or a label "
-                                  "with a mesh file")
+                                  f"{', '.join(target_names())} or a label with a mesh file")
         if self.mass is None:
             if mesh:
                 raise TargetError("target field 'mass': a mesh file's target needs its total "
@@ -106,7 +111,7 @@ class TargetConfig:
         if self.units not in UNITS:
             raise TargetError(f"target field 'units': got {self.units!r}; must be one of "
                               f"{sorted(UNITS)}")
-        for name, sizes in (("com", (0, 3)), ("inertia", (0, 6, 9))):
+        for name, sizes in (("com", (0, 3)), ("inertia", (0, 6, 9)), ("attitude_deg", (0, 3))):
             v = getattr(self, name)
             try:
                 t = tuple(float(c) for c in v)
@@ -126,6 +131,12 @@ class TargetConfig:
                 raise TargetError(f"target field 'mesh_sha256': {path} has SHA-256 {sha[:12]}..., "
                                   f"not the recorded {self.mesh_sha256[:12]}...; the file changed")
             object.__setattr__(self, "mesh_sha256", sha)
+            from .shapes import target_shape
+
+            try:
+                target_shape(self)                  # refused here, with the file's defect
+            except ValueError as exc:
+                raise TargetError(str(exc)) from None
 
     @property
     def kind(self) -> str:
@@ -141,29 +152,37 @@ class TargetConfig:
 
         return catalogue.mesh_path(catalogue.entry(self.name))
 
-    @classmethod
-    def named(cls, target: str, **overrides) -> TargetConfig:
-        """The configuration of ``--target FILE|NAME``: a catalogue name, or a mesh file
-        (its name the file's stem)."""
-        from .shapes import catalogue
-
-        if target == DEFAULT_NAME or target in catalogue.CATALOGUE:
-            return cls(name=target, **overrides)
-        path = Path(target).expanduser()
-        if not path.suffix:
-            raise TargetError(f"target: got {target!r}; must be one of "
-                              f"{[DEFAULT_NAME] + sorted(catalogue.CATALOGUE)} or "
-                              "a mesh file (.stl, .obj, .ply, .glb, .gltf, .off)")
-        return cls(name=overrides.pop("name", path.stem), mesh=str(path), **overrides)
-
     def to_dict(self) -> dict:
         """The settings as plain values; the revolution kind's new fields at their defaults
         are left out, so that a default target keeps the run keys it had before shapes."""
         d = asdict(self)
         d["com"], d["inertia"] = list(self.com), list(self.inertia)
+        d["attitude_deg"] = list(self.attitude_deg)
         if self.kind == "revolution":
-            return {k: d[k] for k in _REVOLUTION_FIELDS}
+            keep = _REVOLUTION_FIELDS + (("attitude_deg",) if self.attitude_deg else ())
+            return {k: d[k] for k in keep}
         return d
+
+
+def target_names() -> list[str]:
+    """The targets known by name: the analytic default, then the catalogue's."""
+    from .shapes.catalogue import CATALOGUE
+
+    return [DEFAULT_NAME, *CATALOGUE]
+
+
+def target_fields(text: str) -> dict:
+    """The TargetConfig fields a target is given by in one word (``--target``, a request's
+    ``target``): a name of :func:`target_names`, or a mesh file (named by its stem)."""
+    if text in target_names():
+        return {"name": text, "mesh": ""}
+    path = Path(text).expanduser()
+    if path.suffix.lower() not in (".stl", ".obj", ".ply", ".glb", ".gltf", ".off"):
+        raise TargetError(f"target: got {text!r}; must be one of {', '.join(target_names())} "
+                          "or a mesh file (.stl, .obj, .ply, .glb, .gltf, .off)")
+    if not path.is_file():
+        raise TargetError(f"target: {text!r} is not a file")
+    return {"name": path.stem, "mesh": str(path)}
 
 
 def file_sha256(path: Path) -> str:

@@ -288,6 +288,11 @@ class MeshShape(Shape):
             vertices, faces, repairs = load_mesh(path, config.units)
         except MeshError as exc:
             raise MeshError(f"target field 'mesh': {exc}") from None
+        if repairs:
+            import warnings
+
+            warnings.warn(f"target {config.name}: {path}: repaired: {'; '.join(repairs)}",
+                          stacklevel=2)
         com = np.array(config.com) * 1.0 if config.com else None
         inertia = _tensor(config.inertia) if config.inertia else None
         return cls(config.name, vertices, faces, config.mass, com=com, inertia=inertia,

@@ -1,0 +1,299 @@
+"""A target is a shape (docs/model.md §15): the mesh kind's query against an independent
+exact distance, its body frame, repairs and refusals, determinism, the catalogue, the
+revolution kind kept as before, and contact with a thin plate in both kernels."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import trimesh
+
+from tethernet_ros.core.config import ConfigError, SimConfig
+from tethernet_ros.core.design import REFERENCE_DESIGNS
+from tethernet_ros.core.episode import CaptureSimulation, run_episode
+from tethernet_ros.core.scenario import scenario_for
+from tethernet_ros.core.shapes import target_shape
+from tethernet_ros.core.shapes.catalogue import CATALOGUE
+from tethernet_ros.core.shapes.mesh import query_tables
+from tethernet_ros.core.target import TargetConfig, TargetError, target_fields
+
+
+@pytest.fixture(autouse=True)
+def _own_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("TETHERNET_CACHE", str(tmp_path / "cache"))
+
+
+def _mesh_config(tmp_path, mesh, name="part", **kw) -> TargetConfig:
+    path = tmp_path / f"{name}.stl"
+    mesh.export(path)
+    return TargetConfig(mesh=str(path), **{"mass": 100.0, **kw})
+
+
+def _segment_d2(p, a, b):
+    ab = b - a
+    t = np.clip(((p - a) * ab).sum(-1) / (ab * ab).sum(-1), 0.0, 1.0)
+    q = a + t[..., None] * ab
+    return ((p - q) ** 2).sum(-1), q
+
+
+def _reference_sd(mesh, points):
+    """Exact signed distance and nearest point, independent of the kernel's query: brute
+    force over every triangle (the nearest of its plane's foot, when inside it, and its
+    three edges), the sign by the generalised winding number (solid angles, van
+    Oosterom and Strackee 1983)."""
+    tri = np.asarray(mesh.triangles)
+    out_d, out_q, wind = [], [], []
+    for p in points:
+        a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+        n = np.cross(b - a, c - a)
+        n /= np.linalg.norm(n, axis=1)[:, None]
+        h = ((p - a) * n).sum(1)
+        f = p - h[:, None] * n
+        inside = np.ones(len(tri), bool)
+        for u, v in ((a, b), (b, c), (c, a)):
+            inside &= (np.cross(v - u, f - u) * n).sum(1) >= 0.0
+        d2 = np.where(inside, h * h, np.inf)
+        q = f.copy()
+        for u, v in ((a, b), (b, c), (c, a)):
+            e2, eq = _segment_d2(p, u, v)
+            better = e2 < d2
+            d2 = np.where(better, e2, d2)
+            q[better] = eq[better]
+        k = int(np.argmin(d2))
+        out_d.append(math.sqrt(d2[k]))
+        out_q.append(q[k])
+        ra, rb, rc = a - p, b - p, c - p
+        la, lb, lc = (np.linalg.norm(r, axis=1) for r in (ra, rb, rc))
+        num = (ra * np.cross(rb, rc)).sum(1)
+        den = la * lb * lc + (ra * rb).sum(1) * lc + (rb * rc).sum(1) * la + (rc * ra).sum(1) * lb
+        wind.append(np.arctan2(num, den).sum() / (2 * math.pi))
+    d = np.array(out_d)
+    return np.where(np.array(wind) > 0.5, -d, d), np.array(out_q)
+
+
+@pytest.mark.parametrize("name", ["zenit-2-nozzle", "envisat"])
+def test_mesh_query_is_the_exact_signed_distance(name):
+    shape = target_shape(TargetConfig(name=name))
+    mesh = shape.trimesh()
+    rng = np.random.default_rng(3)
+    lo, hi = mesh.bounds
+    pts = rng.uniform(lo - 0.8, hi + 0.8, size=(1500, 3))
+    ref, nearest = _reference_sd(mesh, pts)
+    near = ref <= 0.8                  # inside, or outside within the 1 m band: exact
+    sd, nrm = shape.signed_distances(pts)
+    assert near.sum() > 300 and (ref < -0.8).sum() > 10
+    assert np.max(np.abs(sd[near] - ref[near])) < 1e-9
+    far = ~near
+    assert np.all(sd[far] <= np.abs(ref[far]) + 1e-9)   # elsewhere a lower bound ...
+    assert np.all(sd[far] > 0.0)                        # ... of a point outside
+    # the normal points away from the nearest surface point, unit length
+    close = near & (np.abs(ref) > 1e-6)
+    q = nearest[close]
+    expect = (pts[close] - q) / np.linalg.norm(pts[close] - q, axis=1)[:, None]
+    expect *= np.sign(ref[close])[:, None]
+    assert np.max(np.abs(nrm[close] - expect)) < 1e-6
+
+
+def test_deep_interior_points_are_exact():
+    shape = target_shape(TargetConfig(name="zenit-2-cylinder"))
+    # the centre and points along the axis: 1.95 m (faceted) from the side wall
+    for x in (0.0, 2.0, -3.0):
+        d, _ = shape.signed_distance([x, 0.0, 0.0])
+        assert d == pytest.approx(-1.95 * math.cos(math.pi / 128), abs=1e-6)
+    assert shape.min_surface_distance == pytest.approx(1.95 * math.cos(math.pi / 128), abs=1e-6)
+
+
+def test_mesh_zenit_matches_the_analytic_stage():
+    analytic = target_shape(TargetConfig())
+    mesh = target_shape(TargetConfig(name="zenit-2-cylinder"))
+    # a 128-sided prism inside the circle: volume and moments low by the faceting, about
+    # 4e-4 (area ratio 1 - (2 pi / 128)^2 / 6)
+    assert mesh.volume == pytest.approx(analytic.volume, rel=6e-4)
+    assert mesh.volume < analytic.volume
+    np.testing.assert_allclose(mesh.inertia, analytic.inertia, rtol=1e-3)
+    assert mesh.extent == pytest.approx(analytic.extent, abs=1e-6)
+    # the body frame: least inertia along x (the stage's long axis)
+    assert mesh.inertia[0] < mesh.inertia[1] and mesh.inertia[0] < mesh.inertia[2]
+    for p in ([0.0, 0.0, 3.0], [6.0, 0.0, 0.0], [5.5, 2.2, 0.0]):
+        assert mesh.signed_distance(p)[0] == pytest.approx(analytic.signed_distance(p)[0],
+                                                            abs=2e-3)
+
+
+def test_body_frame_orders_the_principal_axes(tmp_path):
+    box = trimesh.creation.box((2.0, 3.0, 6.0))       # least inertia about its 6 m side
+    R = trimesh.transformations.rotation_matrix(0.7, [1.0, 2.0, 0.5])
+    box.apply_transform(R)
+    box.apply_translation([4.0, -1.0, 2.0])
+    shape = target_shape(_mesh_config(tmp_path, box, mass=360.0))
+    m = 360.0
+    Ia, Ib, Ic = (m * (3 ** 2 + 6 ** 2) / 12, m * (2 ** 2 + 6 ** 2) / 12,
+                  m * (2 ** 2 + 3 ** 2) / 12)   # about the 2, 3 and 6 m sides
+    # x: least (the 6 m side), y: greatest (the 2 m side), z: the middle one (to STL's
+    # float32 vertices)
+    np.testing.assert_allclose(shape.inertia, [Ic, Ia, Ib], rtol=1e-6)
+    assert shape.extent[0] == pytest.approx(3.0, abs=1e-6)
+    axes = shape.axes
+    assert np.linalg.det(axes) == pytest.approx(1.0, abs=1e-12)
+    np.testing.assert_allclose(np.abs(axes[:, 0]), np.abs(R[:3, 2]), atol=1e-6)
+    assert shape.min_surface_distance == pytest.approx(1.0, abs=1e-6)
+
+
+def test_given_com_and_inertia_are_used_and_checked(tmp_path):
+    box = trimesh.creation.box((2.0, 2.0, 2.0))
+    cfg = _mesh_config(tmp_path, box, com=(0.1, 0.0, 0.0), inertia=(10.0, 20.0, 25.0, 0, 0, 0))
+    shape = target_shape(cfg)
+    np.testing.assert_allclose(shape.inertia, [10.0, 25.0, 20.0])
+    assert shape.signed_distance([0.0, 0.0, 0.0])[0] == pytest.approx(-0.9)
+    with pytest.raises(TargetError, match="inertia"):
+        _mesh_config(tmp_path, box, name="bad", inertia=(1.0, 1.0, 5.0))
+
+
+def _tube():
+    tube = trimesh.creation.cylinder(radius=0.5, height=2.0, sections=32)
+    side = np.abs(tube.face_normals[:, 2]) < 0.5
+    return trimesh.Trimesh(tube.vertices, tube.faces[side], process=False)
+
+
+@pytest.mark.parametrize("make, repaired", [
+    (lambda: trimesh.Trimesh(trimesh.creation.box((1, 2, 3)).vertices,
+                             trimesh.creation.box((1, 2, 3)).faces[:-1], process=False),
+     "closed holes"),
+    (lambda: trimesh.Trimesh(trimesh.creation.box((1, 2, 3)).vertices,
+                             trimesh.creation.box((1, 2, 3)).faces[:, ::-1], process=False),
+     "inverted normals"),
+], ids=["hole", "inverted"])
+def test_repairable_meshes_are_repaired_and_reported(tmp_path, make, repaired):
+    with pytest.warns(UserWarning, match=repaired):
+        shape = target_shape(_mesh_config(tmp_path, make()))
+    assert shape.volume == pytest.approx(6.0)
+    assert any(repaired.split()[-1] in r for r in shape.describe()["repairs"])
+
+
+@pytest.mark.parametrize("make, units, defect", [
+    (_tube, "m", "open surface"),
+    (lambda: trimesh.creation.box((2000.0, 3000.0, 1000.0)), "m", "in mm\\? give units 'mm'"),
+    (lambda: trimesh.creation.box((0.01, 0.01, 0.01)), "m", "must be 0.05-200 m"),
+    (lambda: trimesh.util.concatenate([trimesh.creation.box((2, 2, 2)),
+                                       trimesh.creation.box((1, 1, 3))]), "m", "overlap"),
+], ids=["open", "millimetres", "tiny", "overlapping"])
+def test_bad_meshes_are_refused_naming_file_and_defect(tmp_path, make, units, defect):
+    with pytest.raises(TargetError, match=defect) as err:
+        _mesh_config(tmp_path, make(), units=units)
+    assert "part.stl" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_millimetres_accepted_with_units(tmp_path):
+    shape = target_shape(_mesh_config(tmp_path, trimesh.creation.box((2000.0, 3000.0, 1000.0)),
+                                      units="mm"))
+    assert shape.volume == pytest.approx(6.0)
+
+
+def test_bad_target_settings_name_the_field(tmp_path):
+    with pytest.raises(TargetError, match="'mass'"):
+        TargetConfig(mesh=str(tmp_path / "x.stl"))
+    with pytest.raises(TargetError, match="'name'"):
+        TargetConfig(name="hubble")
+    with pytest.raises(TargetError, match="'units'"):
+        _mesh_config(tmp_path, trimesh.creation.box((1, 1, 1)), units="furlong")
+    with pytest.raises(TargetError, match="is not a file"):
+        target_fields(str(tmp_path / "missing.obj"))
+    with pytest.raises(ConfigError, match="target field 'name'"):
+        SimConfig.from_dict({"target": {"name": "hubble"}})
+
+
+def test_a_changed_file_is_refused_against_its_recorded_hash(tmp_path):
+    cfg = _mesh_config(tmp_path, trimesh.creation.box((1, 2, 3)))
+    trimesh.creation.box((1, 2, 4)).export(cfg.mesh)
+    with pytest.raises(TargetError, match="the file changed"):
+        TargetConfig(mesh=cfg.mesh, mass=100.0, mesh_sha256=cfg.mesh_sha256)
+
+
+@pytest.mark.parametrize("fmt", ["obj", "ply", "off", "glb"])
+def test_formats_give_the_same_body(tmp_path, fmt):
+    envisat = target_shape(TargetConfig(name="envisat")).trimesh()
+    path = tmp_path / f"envisat.{fmt}"
+    envisat.export(path)
+    shape = target_shape(TargetConfig(mesh=str(path), mass=8211.0))
+    ref = target_shape(TargetConfig(name="envisat"))
+    # the same body to the formats' rounding of the vertices (OBJ and OFF write text)
+    assert shape.volume == pytest.approx(ref.volume, rel=1e-8)
+    np.testing.assert_allclose(shape.inertia, ref.inertia, rtol=1e-7)
+
+
+def test_query_tables_are_the_same_bits_built_or_cached(tmp_path):
+    shape = target_shape(TargetConfig(name="zenit-2-nozzle"))
+    built = query_tables(shape.tris, shape.faces, len(shape.vertices))     # builds (fresh cache)
+    cached = query_tables(shape.tris, shape.faces, len(shape.vertices))    # reads it
+    assert list((tmp_path / "cache" / "shapes").glob("*.npz"))
+    for k in built:
+        assert built[k].tobytes() == cached[k].tobytes(), k
+
+
+def test_catalogue_entries_load_as_closed_bodies():
+    for name, entry in CATALOGUE.items():
+        shape = target_shape(TargetConfig(name=name))
+        assert shape.mass == entry.mass
+        assert shape.volume > 0 and shape.min_surface_distance > 0
+        assert shape.bounding_radius >= max(shape.extent)
+        # every vertex lies on the surface: the query answers 0 there
+        d, _ = shape.signed_distances(shape.vertices[:50])
+        assert np.max(np.abs(d)) < 1e-9, name
+
+
+def test_default_target_keeps_its_settings_and_run_keys():
+    # the fields a default target wrote before shapes, and nothing else
+    assert SimConfig().to_dict()["target"] == {
+        "diameter": 3.9, "length": 10.4, "mass": 8300.0, "nozzle": False,
+        "nozzle_length": 2.0, "nozzle_base_radius": 0.5, "nozzle_exit_radius": 1.0}
+    d = SimConfig(target=TargetConfig(name="envisat")).to_dict()["target"]
+    assert d["name"] == "envisat" and len(d["mesh_sha256"]) == 64
+    assert SimConfig.from_dict({"target": d}).target == TargetConfig(name="envisat")
+
+
+def test_attitude_turns_the_face_the_chaser_sees():
+    design = REFERENCE_DESIGNS["time-min"]
+    sc = scenario_for(design, None, SimConfig(target=TargetConfig(attitude_deg=(0.0, 0.0, 90.0))))
+    q = sc.target_body.quat
+    # 90 deg about the line-of-sight's perpendicular z: the long axis x now along world y
+    assert q == pytest.approx([math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4)])
+
+
+def _plate(tmp_path, thickness):
+    """A 30 m x 30 m plate ``thickness`` thick, turned face-on to the chaser (its normal,
+    the body y axis of greatest inertia, along the line of sight)."""
+    plate = trimesh.creation.box((30.0, 30.0, thickness))
+    path = tmp_path / "plate.stl"
+    plate.export(path)
+    return TargetConfig(mesh=str(path), mass=2000.0, attitude_deg=(90.0, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("integrator", ["implicit", "explicit"])
+def test_no_node_passes_through_a_3cm_plate(tmp_path, integrator):
+    """The time-min design's net (V_z 10 m/s, its fastest) shot at a plate 3 cm thick,
+    larger than the net: every node stops on the chaser's side of the plate."""
+    tc = _plate(tmp_path, 0.03)
+    cfg = SimConfig(target=tc) if integrator == "implicit" else \
+        SimConfig(target=tc, integrator="explicit")
+    sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, cfg))
+    nodes = np.asarray(sim.s.net_nodes)
+    deepest = -math.inf
+    hit = False
+    while sim.step < sim.end_step() and sim.time < 5.0:
+        sim.advance(20)
+        x = sim.s.bodies.x[nodes] - sim.s.target_body.pos
+        z = x[:, 2]                                  # along the plate's normal (world z)
+        inside = np.abs(x[:, 0]) < 14.0
+        hit = hit or bool(np.any(z[inside] > -0.1))
+        deepest = max(deepest, float(z[inside].max()))
+    assert hit                                       # the net reached the plate
+    assert deepest < 0.0                             # and no node got past its mid-plane
+    assert sim.max_penetration < 0.015               # nor through half its thickness
+
+
+def test_mesh_zenit_episode_agrees_with_the_analytic_one():
+    design = REFERENCE_DESIGNS["time-min"]
+    a = run_episode(design, None, SimConfig())
+    m = run_episode(design, None, SimConfig(target=TargetConfig(name="zenit-2-cylinder")))
+    assert a.success and m.success
+    assert m.completion_time == pytest.approx(a.completion_time, rel=0.01)
