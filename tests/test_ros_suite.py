@@ -39,6 +39,7 @@ from tethernet_ros.core.scenario import (actions_for, scenario_for,  # noqa: E40
 from tethernet_ros.ros.names import ALWAYS_RECORDED, TOPICS  # noqa: E402
 from tethernet_ros.ros.parameters import DEFAULTS  # noqa: E402
 from tethernet_ros.ros.suite import RosSuite  # noqa: E402
+from tethernet_ros.core.target import TargetConfig  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(400)]
 
@@ -329,6 +330,10 @@ def test_bad_requests_are_refused_and_the_node_keeps_serving(suite, reference):
     cases.append((r, "noise.orientation_axis"))
     cases.append((suite.request(DESIGN, SEED, bag_name="../escape"), "bag_name"))
     cases.append((suite.request(DESIGN, SEED, bag_name="time-min_seed3"), "bag_name"))  # exists
+    cases.append((suite.request(DESIGN, SEED, target="hubble"), "target"))
+    cases.append((suite.request(DESIGN, SEED, target=str(ROOT / "missing.stl")), "target"))
+    cases.append((suite.request(DESIGN, SEED, target="envisat", target_mass=-5.0), "target_mass"))
+    cases.append((suite.request(DESIGN, SEED, target_mass=100.0), "target_mass"))
     for req, field in cases:
         resp = suite.call(req, timeout=30)
         assert resp.status == RunCapture.Response.REJECTED, field
@@ -341,6 +346,29 @@ def test_bad_requests_are_refused_and_the_node_keeps_serving(suite, reference):
     assert bag is None
     assert_same_result(result, nominal)
     assert result.seed is None
+
+
+def test_a_request_names_its_target(suite, tmp_path):
+    """A mesh target named in the request: the episode against the Zenit-2's mesh, equal to
+    the library's bit for bit; its bag's setup carries the file's name and hash."""
+    config = CONFIG.replace(target=TargetConfig(name="zenit-2-cylinder"))
+    expected = run_episode(DESIGN, NOISE.sample(SEED), config, record_trace=False)
+    result, bag = suite.capture(DESIGN, SEED, bag_name="mesh_target",
+                                target="zenit-2-cylinder")
+    assert_same_result(result, expected)
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([Path(bag)]) as reader:
+        conns = [c for c in reader.connections if c.topic == TOPICS["setup"]]
+        setups = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(conns)]
+    target = json.loads(setups[0].sim_config_json)["target"]
+    assert target["name"] == "zenit-2-cylinder"
+    assert target["mesh_sha256"] == config.target.mesh_sha256 and len(target["mesh_sha256"]) == 64
+    # tethernet replay rebuilds the episode against the same mesh and names it
+    report = json.loads(subprocess.run([str(ROOT / ".venv/bin/tethernet"), "replay", str(bag),
+                                        "--json"], capture_output=True, text=True).stdout)
+    assert report["target"]["name"] == "zenit-2-cylinder"
+    assert report["target"]["mesh_sha256"] == config.target.mesh_sha256
 
 
 def test_request_without_noise_settings_gets_the_nominal_spreads(suite):

@@ -174,10 +174,34 @@ def tumble_from_msg(m, prefix: str = "tumble") -> TumbleConfig:
 
 def config_with_tumble(config: SimConfig, request) -> SimConfig:
     """The episode's SimConfig: ``config`` with the request's tumble where it sets one
-    (``set_tumble``); RequestError names a bad tumble field."""
-    if not getattr(request, "set_tumble", False):
-        return config
-    return config.replace(tumble=tumble_from_msg(request.tumble))
+    (``set_tumble``) and its target where it names one; RequestError names a bad tumble
+    or target field."""
+    if getattr(request, "set_tumble", False):
+        config = config.replace(tumble=tumble_from_msg(request.tumble))
+    target = target_from_request(request)
+    return config if target is None else config.replace(target=target)
+
+
+def target_from_request(request):
+    """The TargetConfig a request's ``target`` and ``target_mass`` name (None: the
+    configured target); RequestError names the bad field."""
+    from ..core.target import TargetConfig, TargetError, target_fields
+
+    name = getattr(request, "target", "") or ""
+    mass = float(getattr(request, "target_mass", 0.0) or 0.0)
+    if not name:
+        if mass != 0.0:
+            raise RequestError("target_mass", "given without a target; name the target too")
+        return None
+    if not (math.isfinite(mass) and mass >= 0.0):
+        raise RequestError("target_mass", f"got {mass!r}; must be a mass > 0 kg (0: the "
+                           "catalogue's)")
+    try:
+        return TargetConfig(**target_fields(name), **({"mass": mass} if mass > 0 else {}))
+    except TargetError as exc:
+        text = str(exc)
+        field = "target_mass" if "'mass'" in text else "target"
+        raise RequestError(field, text) from None
 
 
 # --- episode setup ----------------------------------------------------------------------

@@ -18,11 +18,13 @@ class MarkerBuilder:
     closing_ring            LINE_LIST of the 12 drawstring pairs, green when locked
     corner_masses           SPHERE_LIST
     main_tether             LINE_STRIP, net centre -> winch
-    target                  CYLINDER at the target's pose (its attitude: the stage's long
-                            axis is its body x), so it turns as the target tumbles
+    target                  the target at its pose, so it turns as it tumbles: the Zenit-2
+                            stage a CYLINDER (its long axis the body x), a mesh target
+                            a TRIANGLE_LIST of its body-frame triangles
     chaser                  CUBE behind the launch point
     target_spin             ARROW from the target's centre along its angular velocity
-                            (right-hand rule), L/2 + 2 m long; no length at rest
+                            (right-hand rule), 2 m longer than the target's bounding
+                            radius; no length at rest
 
     Topology is taken once from the Scenario; positions on every call."""
 
@@ -45,8 +47,15 @@ class MarkerBuilder:
         self.corners = s.corner_bodies
         self.winch = s.tether.winch
         tc = s.config.target
-        self.target_scale = (tc.diameter, tc.diameter, tc.length)
-        self.spin_arrow = tc.length / 2 + 2.0
+        shape = s.target
+        if shape.kind == "revolution":
+            self.target_scale = (tc.diameter, tc.diameter, tc.length)
+            self.target_triangles = None
+            self.spin_arrow = tc.length / 2 + 2.0
+        else:
+            self.target_scale = (1.0, 1.0, 1.0)
+            self.target_triangles = np.asarray(shape.vertices)[np.asarray(shape.faces)].reshape(-1, 3)
+            self.spin_arrow = shape.bounding_radius + 2.0
         self.chaser_side = s.config.chaser_side
 
     @staticmethod
@@ -89,11 +98,17 @@ class MarkerBuilder:
             self._points(x[self.corners])
         marker("main_tether", 5, Marker.LINE_STRIP, (0.8, 0.8, 0.8, 1.0), (0.03, 0.0, 0.0)).points = \
             self._points(x[self.tether_chain])
-        mk = marker("target", 6, Marker.CYLINDER, (0.6, 0.6, 0.65, 0.8), self.target_scale)
+        kind = Marker.CYLINDER if self.target_triangles is None else Marker.TRIANGLE_LIST
+        mk = marker("target", 6, kind, (0.6, 0.6, 0.65, 0.8), self.target_scale)
         p, o = mk.pose.position, mk.pose.orientation
         p.x, p.y, p.z = (float(v) for v in state.target_position)
-        # the cylinder marker's axis is its local z; the stage's long axis is body x
-        o.w, o.x, o.y, o.z = _quat_mul(state.target_quaternion, (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
+        if self.target_triangles is None:
+            # the cylinder marker's axis is its local z; the stage's long axis is body x
+            o.w, o.x, o.y, o.z = _quat_mul(state.target_quaternion,
+                                           (math.sqrt(0.5), 0.0, math.sqrt(0.5), 0.0))
+        else:
+            o.w, o.x, o.y, o.z = (float(v) for v in state.target_quaternion)
+            mk.points = self._points(self.target_triangles)
         mk = marker("chaser", 7, Marker.CUBE, (0.3, 0.3, 0.3, 1.0), (self.chaser_side,) * 3)
         # the winch sits at the launch point on the cube's +z face
         cx, cy, cz = (float(v) for v in x[self.winch])

@@ -377,9 +377,11 @@ class RosSuite:
 
     # -- requests ------------------------------------------------------------------------
     def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
-                record_bag: bool = True, bag_name: str | None = None, tumble=None):
+                record_bag: bool = True, bag_name: str | None = None, tumble=None,
+                target: str = "", target_mass: float = 0.0):
         """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
-        episode (None: the suite's configuration's)."""
+        episode (None: the suite's configuration's); ``target``: a catalogue name or mesh
+        file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's)."""
         from tethernet_msgs.srv import RunCapture
 
         req = RunCapture.Request()
@@ -392,6 +394,7 @@ class RosSuite:
         if tumble is not None:
             req.set_tumble = True
             req.tumble = conv.tumble_msg(tumble)
+        req.target, req.target_mass = str(target), float(target_mass)
         return req
 
     def set_parameters(self, node: str, values: dict, timeout: float = 10.0) -> list[str]:
@@ -465,9 +468,10 @@ class RosSuite:
 
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,
-                timeout: float = 900.0, tumble=None) -> tuple[EpisodeResult, str | None]:
-        resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble),
-                         timeout)
+                timeout: float = 900.0, tumble=None, target: str = "",
+                target_mass: float = 0.0) -> tuple[EpisodeResult, str | None]:
+        resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble,
+                                      target, target_mass), timeout)
         if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.status != SUCCEEDED:

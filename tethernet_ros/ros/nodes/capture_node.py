@@ -208,6 +208,7 @@ class CaptureNode(Node):
         noise = None if request.nominal else conv.noise_model_from_msg(request.noise)
         if getattr(request, "set_tumble", False):
             conv.tumble_from_msg(request.tumble)
+        conv.target_from_request(request)
         name = request.bag_name
         if name:
             try:
