@@ -13,8 +13,9 @@ machine code is packed SIMD arithmetic (``inspect_asm``).  Every batched episode
 checked against its single run bit for bit (settled CQI, locks, closing time, steps).
 Then the contacts' broad phase off against on (``broadphase_cost``; alone with
 ``--broadphase-only``): episodes, real-time factors, the share of contact tests skipped
-and the contact stage's own cost on a wrapped net.  CPU time (``time.process_time``) is
-used: it is steadier than wall time on a shared machine.  Runs on one core.
+and the contact stage's own cost on a wrapped net.  Then an episode against the Zenit-2
+as a mesh against the analytic one (``target_cost``; alone with ``--targets-only``).  CPU
+time (``time.process_time``) is used: it is steadier than wall time on a shared machine.  Runs on one core.
 """
 from __future__ import annotations
 
@@ -192,6 +193,59 @@ def broadphase_cost(designs, samples: int, wrapped_step: int = 20000, reps: int 
     return lines
 
 
+def target_cost(designs, samples: int, repeats: int = 2) -> list[str]:
+    """An episode against a mesh target against the analytic Zenit-2 of the same design
+    (issue 34: at most 1.5 times), as lines of text: the stage as the catalogue's
+    128-sided meshes (``zenit-2-cylinder`` against the default cylinder; ``zenit-2-nozzle``
+    against the analytic stage with its nozzle), ``samples`` noise samples each run one
+    at a time, interleaved, each episode's CPU time the least of ``repeats`` runs; the
+    ratio mesh / analytic, real-time factors per core and the exact contact tests per
+    step (the mesh is another shape, so its episodes are not the analytic ones)."""
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.episode import CaptureSimulation, run_simulation
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.core.scenario import scenario_for
+    from tethernet_ros.core.target import TargetConfig
+    from tethernet_ros.montecarlo.seeds import sample_seed
+
+    pairs = [("cylinder", SimConfig(), SimConfig(target=TargetConfig(name="zenit-2-cylinder"))),
+             ("+nozzle", SimConfig(target=TargetConfig(nozzle=True)),
+              SimConfig(target=TargetConfig(name="zenit-2-nozzle")))]
+
+    def episode(design, sample, cfg):
+        sim = CaptureSimulation(scenario_for(design, sample, cfg))
+        t0 = time.process_time()
+        r = run_simulation(sim, record_trace=False)
+        return time.process_time() - t0, r.steps * sim.dt, int(sim.data.broad.tests[0]), r.steps
+
+    for _, a, m in pairs:                       # build, compile and cache before timing
+        for cfg in (a, m):
+            episode(REFERENCE_DESIGNS["time-min"], None, cfg.replace(horizon=1.0))
+    lines = ["mesh target against the analytic Zenit-2: episodes one at a time, implicit "
+             "method, broad phase on",
+             f"{'design':<11} {'stage':<9} {'cpu an.':>8} {'cpu mesh':>9} {'mesh/an.':>9} "
+             f"{'RTF an.':>8} {'RTF mesh':>9} {'tests/step an.':>15} {'mesh':>6}"]
+    for name in designs:
+        design = REFERENCE_DESIGNS[name]
+        for label, ca, cm in pairs:
+            tot = {"a": [0.0, 0.0, 0, 0], "m": [0.0, 0.0, 0, 0]}
+            for i in range(samples):
+                sample = NoiseModel().sample(sample_seed(0, i))
+                for key, cfg in (("a", ca), ("m", cm)):
+                    runs = [episode(design, sample, cfg) for _ in range(repeats)]
+                    best = min(runs)
+                    for j in range(4):
+                        tot[key][j] += best[j]
+            a, m = tot["a"], tot["m"]
+            lines.append(f"{name:<11} {label:<9} {a[0]:8.2f} {m[0]:9.2f} {m[0] / a[0]:9.3f} "
+                         f"{a[1] / a[0]:8.1f} {m[1] / m[0]:9.1f} {a[2] / a[3]:15.1f} "
+                         f"{m[2] / m[3]:6.1f}")
+    lines.append("cpu: CPU s of the samples; RTF: simulated s per CPU s; tests/step: exact "
+                 "signed-distance queries per step (the broad phase skips the rest)")
+    return lines
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=8)
@@ -199,9 +253,14 @@ def main(argv=None) -> int:
     ap.add_argument("--designs", default="baseline,suboptimal,mass-min,time-min")
     ap.add_argument("--broadphase-only", action="store_true",
                     help="only the contact broad phase's table (broadphase_cost)")
+    ap.add_argument("--targets-only", action="store_true",
+                    help="only the mesh-target table (target_cost)")
     args = ap.parse_args(argv)
     if args.broadphase_only:
         print("\n".join(broadphase_cost(args.designs.split(","), args.samples)))
+        return 0
+    if args.targets_only:
+        print("\n".join(target_cost(args.designs.split(","), args.samples)))
         return 0
 
     from tethernet_ros.core.batch import BatchRunner, choose_lanes
@@ -265,6 +324,7 @@ def main(argv=None) -> int:
           "(core/fidelity.py, the 2 ms step), whose RTF counts its own simulated time")
     print(simd_share(chosen))
     print("\n".join(broadphase_cost(args.designs.split(","), args.samples)))
+    print("\n".join(target_cost(args.designs.split(","), args.samples)))
     return 0
 
 

@@ -28,7 +28,8 @@ from tethernet_ros import machine
 
 ROOT = Path(__file__).resolve().parent.parent
 #: the golden episodes of the default model and the Monte Carlo golden (CQI traces)
-GOLDEN_TESTS = ["tests/test_kernel_golden.py", "-k", "default", "tests/test_montecarlo_golden.py"]
+GOLDEN_TESTS = ["tests/test_kernel_golden.py", "-k", "default or mesh",
+                "tests/test_montecarlo_golden.py"]
 #: numpy 2.x dispatch groups: X86_V4 (AVX-512) and its extensions, X86_V3 (AVX2, FMA3)
 WITHOUT_AVX512 = "X86_V4 AVX512_ICL AVX512_SPR"
 WITHOUT_AVX2 = "X86_V3 " + WITHOUT_AVX512
