@@ -109,7 +109,8 @@ EXPECTED_FIELDS = {
     RunCapture.Request: {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
-        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble",
+        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
+        "target_mass": "double",
     },
     RunCapture.Response: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
@@ -118,7 +119,8 @@ EXPECTED_FIELDS = {
     Capture.Goal: {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
-        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble",
+        "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
+        "target_mass": "double",
     },
     Capture.Result: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",

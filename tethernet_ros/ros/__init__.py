@@ -3,7 +3,8 @@
 names.py        topic and service names, message types, what the suite requires
 parameters.py   node parameter defaults (config/tethernet.yaml mirrors them)
 qos.py          QoS profiles
-conversions.py  message <-> core conversions (``*_msg`` / ``*_from_msg``)
+conversions/    message <-> core conversions (``*_msg`` / ``*_from_msg``), a module per
+                message family
 state.py        what nodes hold between messages: setup, commands, state snapshots
 loop.py         the closed loop cut at its joints (lockstep episodes): ControlledSimulation,
                 the episode's Sensor and Policy outside the kernel

@@ -1,0 +1,83 @@
+"""CaptureMetrics.msg and EpisodeResult.msg from and to the core's metrics and results."""
+from __future__ import annotations
+
+import math
+
+from ...core.episode import EpisodeResult
+from .stamps import set_time
+
+
+#: CaptureMetrics fields that are the core's CQITerms
+TERM_FIELDS = ("cqi", "volume_term", "area_term", "distance_term", "hull_volume", "hull_area",
+               "com_distance")
+
+
+def metrics_msg(terms, sim_time: float, locked_pairs: int, closing_active: bool,
+                frame_id: str = "chaser"):
+    """CaptureMetrics of core CQITerms (None: state not finite -> NaN terms)."""
+    from tethernet_msgs.msg import CaptureMetrics
+
+    m = CaptureMetrics()
+    set_time(m.header.stamp, sim_time)
+    m.header.frame_id = frame_id
+    m.sim_time = float(sim_time)
+    for name in TERM_FIELDS:
+        setattr(m, name, getattr(terms, name) if terms else math.nan)
+    m.locked_pairs = int(locked_pairs)
+    m.closing_active = bool(closing_active)
+    return m
+
+
+def metrics_from_cdr(data: bytes):
+    """The CaptureMetrics message of its serialized (CDR) bytes."""
+    from rclpy.serialization import deserialize_message
+    from tethernet_msgs.msg import CaptureMetrics
+
+    return deserialize_message(data, CaptureMetrics)
+
+
+def terms_from_msg(m) -> dict[str, float]:
+    """The CQI terms of a CaptureMetrics message, by name."""
+    return {name: getattr(m, name) for name in TERM_FIELDS}
+
+
+def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
+                       sim_time: float = 0.0, seed: int | None = None):
+    """EpisodeResult message of a core result, stamped with ``sim_time`` (s).  seed: the
+    seed to report (the request's, also when nominal); default the result's (0 if None)."""
+    from tethernet_msgs.msg import EpisodeResult as ResultMsg
+
+    m = ResultMsg()
+    set_time(m.header.stamp, sim_time)
+    m.header.frame_id = "chaser"
+    m.episode_id = episode_id
+    if seed is None:
+        seed = 0 if result.seed is None else result.seed
+    m.seed = int(seed)
+    m.nominal = bool(nominal)
+    m.success = bool(result.success)
+    m.settled_cqi = float(result.settled_cqi)
+    m.locked_pairs = int(result.locked_pairs)
+    ct = result.closing_time
+    m.closing_time = -1.0 if ct is None or not math.isfinite(ct) else float(ct)
+    m.completion_time = float(result.completion_time)
+    m.mass = float(result.mass)
+    m.failure_reason = result.failure_reason
+    m.wall_time = float(result.wall_time)
+    steps = getattr(result, "steps", -1)
+    m.steps = -1 if steps is None else int(steps)
+    pen = getattr(result, "max_penetration", math.nan)
+    m.max_penetration = math.nan if pen is None else float(pen)
+    return m
+
+
+def episode_result_from_msg(m) -> EpisodeResult:
+    """Core EpisodeResult of a message (a message recorded before it carried ``steps``
+    and ``max_penetration``: -1 and NaN)."""
+    return EpisodeResult(
+        success=bool(m.success), settled_cqi=float(m.settled_cqi), locked_pairs=int(m.locked_pairs),
+        closing_time=float(m.closing_time) if m.closing_time >= 0 else math.nan,
+        completion_time=float(m.completion_time), mass=float(m.mass),
+        failure_reason=m.failure_reason, wall_time=float(m.wall_time),
+        seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
+        max_penetration=float(getattr(m, "max_penetration", math.nan)))

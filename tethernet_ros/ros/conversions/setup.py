@@ -1,0 +1,124 @@
+"""EpisodeSetup.msg and what a request sets of it: the tumble (Tumble.msg), the target, the
+configuration's JSON."""
+from __future__ import annotations
+
+import json
+import math
+
+from ...core.config import SimConfig
+from ...core.design import Design
+from ...core.noise import NoiseModel
+from ...core.tumble import TumbleConfig, TumbleError
+from ..state import Setup
+from .design import design_from_msg, design_msg
+from .noise import noise_settings_from_msg, noise_settings_msg
+from .errors import RequestError
+from .stamps import set_time
+
+
+def tumble_msg(tumble: TumbleConfig):
+    """Tumble message of a TumbleConfig (a vector axis in ``axis_vector``, ``axis`` '')."""
+    from tethernet_msgs.msg import Tumble
+
+    m = Tumble()
+    m.rate_deg_s = float(tumble.rate_deg_s)
+    m.phase_deg = float(tumble.phase_deg)
+    if isinstance(tumble.axis, str):
+        m.axis = tumble.axis
+    else:
+        m.axis = ""
+        m.axis_vector = [float(c) for c in tumble.axis]
+    return m
+
+
+def tumble_from_msg(m, prefix: str = "tumble") -> TumbleConfig:
+    """TumbleConfig of a Tumble message; RequestError names ``tumble.<field>`` and its range."""
+    axis = m.axis if m.axis else tuple(float(c) for c in m.axis_vector)
+    try:
+        return TumbleConfig(rate_deg_s=float(m.rate_deg_s), axis=axis,
+                            phase_deg=float(m.phase_deg))
+    except TumbleError as exc:
+        text = str(exc)
+        field = text.split("'")[1] if text.startswith("tumble field '") else "tumble"
+        if field == "axis" and not m.axis:
+            field = "axis_vector"
+        detail = text.split(": ", 1)[1] if ": " in text else text
+        if field == "axis":
+            detail = detail.replace("or a vector [x, y, z]", "or '' with axis_vector")
+        raise RequestError(f"{prefix}.{field}", detail) from None
+
+
+def config_with_tumble(config: SimConfig, request) -> SimConfig:
+    """The episode's SimConfig: ``config`` with the request's tumble where it sets one
+    (``set_tumble``) and its target where it names one; RequestError names a bad tumble
+    or target field."""
+    if getattr(request, "set_tumble", False):
+        config = config.replace(tumble=tumble_from_msg(request.tumble))
+    target = target_from_request(request)
+    return config if target is None else config.replace(target=target)
+
+
+def target_from_request(request):
+    """The TargetConfig a request's ``target`` and ``target_mass`` name (None: the
+    configured target); RequestError names the bad field."""
+    from ...core.target import TargetConfig, TargetError, target_fields
+
+    name = getattr(request, "target", "") or ""
+    mass = float(getattr(request, "target_mass", 0.0) or 0.0)
+    if not name:
+        if mass != 0.0:
+            raise RequestError("target_mass", "given without a target; name the target too")
+        return None
+    if not (math.isfinite(mass) and mass >= 0.0):
+        raise RequestError("target_mass", f"got {mass!r}; must be a mass > 0 kg (0: the "
+                           "catalogue's)")
+    try:
+        return TargetConfig(**target_fields(name), **({"mass": mass} if mass > 0 else {}))
+    except TargetError as exc:
+        text = str(exc)
+        field = "target_mass" if "'mass'" in text else "target"
+        raise RequestError(field, text) from None
+
+
+def config_overrides(config: SimConfig) -> dict:
+    """The SimConfig fields that differ from the defaults (field -> value)."""
+    base = SimConfig().to_dict()
+    return {k: v for k, v in config.to_dict().items() if v != base[k]}
+
+
+def config_from_json(text: str, field: str = "sim_config_json") -> SimConfig:
+    data = json.loads(text) if text and text.strip() else {}
+    if not isinstance(data, dict):
+        raise ValueError(f"{field}: expected a JSON object of SimConfig fields")
+    return SimConfig.from_dict(data)
+
+
+def setup_msg(episode_id: str, design: Design, seed: int | None, noise: NoiseModel | None,
+              config: SimConfig, wall_time: float, nominal: bool | None = None,
+              lockstep: bool = False):
+    """EpisodeSetup of one episode, stamped with ``wall_time`` (s).  nominal: no noise
+    (default: when ``seed`` is None); a nominal setup still carries the request's seed;
+    lockstep: the closing policy runs through ROS (docs/ros.md)."""
+    from tethernet_msgs.msg import EpisodeSetup
+
+    m = EpisodeSetup()
+    set_time(m.header.stamp, wall_time)
+    m.header.frame_id = "chaser"
+    m.episode_id = episode_id
+    m.design = design_msg(design)
+    m.nominal = seed is None if nominal is None else bool(nominal)
+    m.seed = 0 if seed is None else int(seed)
+    m.noise = noise_settings_msg(noise)
+    m.sim_config_json = json.dumps(config_overrides(config), sort_keys=True)
+    m.lockstep = bool(lockstep)
+    return m
+
+
+def setup_from_msg(m) -> Setup:
+    nominal = bool(m.nominal)
+    scales, axis = (None, "z") if nominal else noise_settings_from_msg(m.noise)
+    return Setup(episode_id=m.episode_id, design=design_from_msg(m.design),
+                 seed=None if nominal else int(m.seed), noise_scales=scales,
+                 orientation_axis=axis, config=config_from_json(m.sim_config_json),
+                 stamp=(int(m.header.stamp.sec), int(m.header.stamp.nanosec)),
+                 request_seed=int(m.seed), lockstep=bool(getattr(m, "lockstep", False)))
