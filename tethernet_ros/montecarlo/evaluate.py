@@ -106,8 +106,14 @@ def _usable(rec: SampleResult | None, record_trace: bool) -> bool:
 
 
 def _extra(spec: RunSpec) -> dict:
-    """What a results-file record adds to say which run it belongs to."""
-    return {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales}
+    """What a results-file record adds to say which run it belongs to (and, for a target
+    other than the default Zenit-2, which: its name, file, SHA-256 and units)."""
+    extra = {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales}
+    t = spec.config.target
+    if t.kind != "revolution":
+        extra["target"] = {"name": t.name, "mesh": t.mesh, "mesh_sha256": t.mesh_sha256,
+                           "units": t.units}
+    return extra
 
 
 def _changed_scales(spec: RunSpec) -> dict:
