@@ -8,7 +8,7 @@ from pathlib import Path
 from optimizer.jsonio import json_clean
 
 from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
-from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseModel
+from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
 from ..core.policies import POLICIES
 from ..core.sensing import NET_POINTS
 from ..core.tumble import AXES, TRANSVERSE
@@ -19,6 +19,14 @@ TUMBLE_AXES = (*AXES, TRANSVERSE)
 #: the closing policies a command line may choose ('external' needs a controller node:
 #: --via ros --controller)
 CLI_POLICIES = tuple(k for k in POLICIES if k != "external")
+#: --target-*-sigma flags: their NoiseModel spreads and help
+TARGET_SPREAD_FIELDS = {"--target-mass-sigma": "sigma_target_mass",
+                        "--target-inertia-sigma": "sigma_target_inertia",
+                        "--target-com-sigma": "sigma_target_com"}
+TARGET_SPREAD_FLAGS = {
+    "--target-mass-sigma": "standard deviation of the target's mass, relative (e.g. 0.05)",
+    "--target-inertia-sigma": "standard deviation of each principal moment, relative",
+    "--target-com-sigma": "standard deviation of the centre of mass along each body axis (m)"}
 #: command-line flag -> the nested SimConfig field it sets
 SCENARIO_FLAGS = {
     "--tumble-rate": ("tumble", "rate_deg_s"), "--tumble-axis": ("tumble", "axis"),
@@ -70,6 +78,10 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
                         "(repeatable)")
     p.add_argument("--orientation-axis", choices=ORIENTATION_AXES, default="z",
                    help="axis of the target-orientation noise (default z, the line of sight)")
+    g = p.add_argument_group("the target's uncertain mass properties (docs/noise.md §1; "
+                             "default 0: known)")
+    for flag, what in TARGET_SPREAD_FLAGS.items():
+        g.add_argument(flag, type=float, default=None, metavar="SIGMA", help=what)
 
 
 def add_config_argument(p: argparse.ArgumentParser) -> None:
@@ -349,7 +361,19 @@ def noise_model_from_args(args) -> NoiseModel:
         except ValueError:
             raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in "
                             f"[{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]") from None
-    return NoiseModel(orientation_axis=args.orientation_axis, scales=scales)
+    spreads = {}
+    for flag in TARGET_SPREAD_FLAGS:
+        v = getattr(args, flag[2:].replace("-", "_"), None)
+        if v is not None:
+            spreads[TARGET_SPREAD_FIELDS[flag]] = v
+    try:
+        return NoiseModel(orientation_axis=args.orientation_axis, scales=scales, **spreads)
+    except NoiseError as exc:
+        text = str(exc)
+        for flag, field in TARGET_SPREAD_FIELDS.items():
+            if f"'{field}'" in text:
+                raise UserError(f"{flag}: {text}") from None
+        raise
 
 
 def print_json(obj) -> None:
