@@ -34,6 +34,7 @@ SCENARIO_FLAGS = {
     "--net-point": ("sensing", "net_point"), "--sensing-rate": ("sensing", "rate_hz"),
     "--latency": ("sensing", "latency"), "--target": ("target", None),
     "--target-mass": ("target", "mass"), "--target-units": ("target", "units"),
+    "--target-attitude": ("target", "attitude_deg"),
 }
 
 
@@ -101,6 +102,9 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="the target's mass (kg; default the catalogue's, 8300 for zenit-2)")
     g.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
                    help="the length unit of a --target mesh file (default m)")
+    g.add_argument("--target-attitude", default=None, metavar="RX,RY,RZ",
+                   help="the target's initial attitude, which face the chaser sees: turns "
+                        "(deg) about the world x, then y, then z axis (default none)")
     g.add_argument("--tumble-rate", type=float, default=None, metavar="DEG_S",
                    help="the target's initial spin rate in [0, 60] deg/s (0: at rest, the default)")
     g.add_argument("--tumble-axis", default=None, metavar="|".join(TUMBLE_AXES) + "|X,Y,Z",
@@ -142,6 +146,17 @@ def fidelity_config(args, config):
                        field="--fidelity")
 
 
+def three_numbers(flag: str, text: str) -> list[float]:
+    """Three numbers 'a,b,c' of a flag; UserError naming it otherwise."""
+    try:
+        v = [float(c) for c in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3:
+        raise UserError(f"{flag} {text!r}: must be three numbers a,b,c")
+    return v
+
+
 def tumble_axis(text: str):
     """A --tumble-axis value: a name of TUMBLE_AXES, or three numbers 'x,y,z'."""
     if text in TUMBLE_AXES:
@@ -168,6 +183,8 @@ def scenario_overrides(args) -> tuple[dict, dict]:
             continue
         if flag == "--tumble-axis":
             v = tumble_axis(v)
+        if flag == "--target-attitude":
+            v = three_numbers(flag, v)
         if flag == "--target":
             for k, x in target_fields(v).items():
                 values.setdefault(group, {})[k] = x
