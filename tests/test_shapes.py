@@ -12,6 +12,7 @@ import trimesh
 from tethernet_ros.core.config import ConfigError, SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.episode import CaptureSimulation, run_episode
+from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros.core.scenario import scenario_for
 from tethernet_ros.core.shapes import target_shape
 from tethernet_ros.core.shapes.catalogue import CATALOGUE
@@ -297,3 +298,68 @@ def test_mesh_zenit_episode_agrees_with_the_analytic_one():
     m = run_episode(design, None, SimConfig(target=TargetConfig(name="zenit-2-cylinder")))
     assert a.success and m.success
     assert m.completion_time == pytest.approx(a.completion_time, rel=0.01)
+
+
+# --- the target's uncertain mass properties (docs/noise.md §1) ---------------------------
+UNCERTAIN = NoiseModel(sigma_target_mass=0.1, sigma_target_inertia=0.2, sigma_target_com=0.3)
+
+
+def test_target_draws_leave_every_earlier_draw_and_are_off_by_default():
+    for seed in (1, 7, 42):
+        plain, drawn = NoiseModel().sample(seed), UNCERTAIN.sample(seed)
+        assert plain.target_mass_offset == 0.0 and not any(plain.target_com_offset)
+        assert drawn.target_mass_offset != 0.0 and all(drawn.target_com_offset)
+        a, b = plain.to_dict(), drawn.to_dict()
+        for k in a:
+            if not k.startswith("target_"):
+                assert a[k] == b[k], k                  # common random numbers kept
+        sc = scenario_for(REFERENCE_DESIGNS["time-min"], plain, SimConfig())
+        assert sc.target_body.inv_mass == 1.0 / 8300.0
+        assert not np.any(sc.target_body.com_offset)
+
+
+def test_drawn_mass_properties_reach_the_episode():
+    shape = target_shape(TargetConfig(name="envisat"))
+    cfg = SimConfig(target=TargetConfig(name="envisat"))
+    for seed in range(1, 30):
+        s = UNCERTAIN.sample(seed)
+        sc = scenario_for(REFERENCE_DESIGNS["time-min"], s, cfg)
+        t = sc.target_body
+        f = max(1.0 + s.target_mass_offset, 0.01)
+        assert 1.0 / t.inv_mass == pytest.approx(shape.mass * f)
+        m = np.asarray(t.inertia)
+        for k in range(3):                               # drawn, or held by the inequality
+            assert m[k] <= shape.inertia[k] * f * max(1.0 + s.target_inertia_offsets[k], 0.01) \
+                * (1 + 1e-12)
+            assert m[k] <= m[(k + 1) % 3] + m[(k + 2) % 3] + 1e-9
+        np.testing.assert_array_equal(t.com_offset, s.target_com_offset)
+        assert t.bound == pytest.approx(shape.bounding_radius + np.linalg.norm(s.target_com_offset))
+
+
+def test_a_moved_centre_of_mass_moves_the_surface_the_net_meets():
+    """With the centre of mass 0.3 m off the shape's, the contact sees the shape where it
+    was measured: a body-frame point b is the shape's point b + offset."""
+    from tethernet_ros.core.kernel.geometry import target_signed_distance
+
+    shape = target_shape(TargetConfig())
+    off = np.array([0.0, 0.0, 0.3])
+    p = np.array([0.0, 0.0, 2.5])
+    d0, _ = target_signed_distance(p + off, shape.geometry())
+    assert d0 == pytest.approx(2.5 + 0.3 - 1.95)
+
+
+def test_uncertain_target_batched_lanes_equal_single_runs():
+    from tethernet_ros.core.batch import BatchRunner
+
+    design = REFERENCE_DESIGNS["mass-min"]
+    cfg = SimConfig(horizon=6.0)
+    samples = [(i, UNCERTAIN.sample(i)) for i in (3, 4)]
+    single = {i: run_episode(design, s, cfg, record_trace=False) for i, s in samples}
+    got = {tag: r for tag, r, _ in BatchRunner(design, cfg, lanes=2).run(samples)}
+    for i, r in single.items():
+        assert repr((got[i].steps, got[i].closing_time, got[i].settled_cqi,
+                     got[i].max_penetration)) == repr((r.steps, r.closing_time, r.settled_cqi,
+                                                       r.max_penetration))
+    # and the draws changed the episode
+    plain = run_episode(design, NoiseModel().sample(3), cfg, record_trace=False)
+    assert plain.max_penetration != single[3].max_penetration

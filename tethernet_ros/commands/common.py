@@ -8,7 +8,7 @@ from pathlib import Path
 from optimizer.jsonio import json_clean
 
 from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
-from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseModel
+from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
 from ..core.policies import POLICIES
 from ..core.sensing import NET_POINTS
 from ..core.tumble import AXES, TRANSVERSE
@@ -19,6 +19,14 @@ TUMBLE_AXES = (*AXES, TRANSVERSE)
 #: the closing policies a command line may choose ('external' needs a controller node:
 #: --via ros --controller)
 CLI_POLICIES = tuple(k for k in POLICIES if k != "external")
+#: --target-*-sigma flags: their NoiseModel spreads and help
+TARGET_SPREAD_FIELDS = {"--target-mass-sigma": "sigma_target_mass",
+                        "--target-inertia-sigma": "sigma_target_inertia",
+                        "--target-com-sigma": "sigma_target_com"}
+TARGET_SPREAD_FLAGS = {
+    "--target-mass-sigma": "standard deviation of the target's mass, relative (e.g. 0.05)",
+    "--target-inertia-sigma": "standard deviation of each principal moment, relative",
+    "--target-com-sigma": "standard deviation of the centre of mass along each body axis (m)"}
 #: command-line flag -> the nested SimConfig field it sets
 SCENARIO_FLAGS = {
     "--tumble-rate": ("tumble", "rate_deg_s"), "--tumble-axis": ("tumble", "axis"),
@@ -26,6 +34,7 @@ SCENARIO_FLAGS = {
     "--net-point": ("sensing", "net_point"), "--sensing-rate": ("sensing", "rate_hz"),
     "--latency": ("sensing", "latency"), "--target": ("target", None),
     "--target-mass": ("target", "mass"), "--target-units": ("target", "units"),
+    "--target-attitude": ("target", "attitude_deg"),
 }
 
 
@@ -70,6 +79,10 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
                         "(repeatable)")
     p.add_argument("--orientation-axis", choices=ORIENTATION_AXES, default="z",
                    help="axis of the target-orientation noise (default z, the line of sight)")
+    g = p.add_argument_group("the target's uncertain mass properties (docs/noise.md §1; "
+                             "default 0: known)")
+    for flag, what in TARGET_SPREAD_FLAGS.items():
+        g.add_argument(flag, type=float, default=None, metavar="SIGMA", help=what)
 
 
 def add_config_argument(p: argparse.ArgumentParser) -> None:
@@ -89,6 +102,9 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="the target's mass (kg; default the catalogue's, 8300 for zenit-2)")
     g.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
                    help="the length unit of a --target mesh file (default m)")
+    g.add_argument("--target-attitude", default=None, metavar="RX,RY,RZ",
+                   help="the target's initial attitude, which face the chaser sees: turns "
+                        "(deg) about the world x, then y, then z axis (default none)")
     g.add_argument("--tumble-rate", type=float, default=None, metavar="DEG_S",
                    help="the target's initial spin rate in [0, 60] deg/s (0: at rest, the default)")
     g.add_argument("--tumble-axis", default=None, metavar="|".join(TUMBLE_AXES) + "|X,Y,Z",
@@ -130,6 +146,17 @@ def fidelity_config(args, config):
                        field="--fidelity")
 
 
+def three_numbers(flag: str, text: str) -> list[float]:
+    """Three numbers 'a,b,c' of a flag; UserError naming it otherwise."""
+    try:
+        v = [float(c) for c in text.split(",")]
+    except ValueError:
+        v = []
+    if len(v) != 3:
+        raise UserError(f"{flag} {text!r}: must be three numbers a,b,c")
+    return v
+
+
 def tumble_axis(text: str):
     """A --tumble-axis value: a name of TUMBLE_AXES, or three numbers 'x,y,z'."""
     if text in TUMBLE_AXES:
@@ -156,6 +183,8 @@ def scenario_overrides(args) -> tuple[dict, dict]:
             continue
         if flag == "--tumble-axis":
             v = tumble_axis(v)
+        if flag == "--target-attitude":
+            v = three_numbers(flag, v)
         if flag == "--target":
             for k, x in target_fields(v).items():
                 values.setdefault(group, {})[k] = x
@@ -349,7 +378,19 @@ def noise_model_from_args(args) -> NoiseModel:
         except ValueError:
             raise UserError(f"--noise-scale {item!r}: FACTOR must be a number in "
                             f"[{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]") from None
-    return NoiseModel(orientation_axis=args.orientation_axis, scales=scales)
+    spreads = {}
+    for flag in TARGET_SPREAD_FLAGS:
+        v = getattr(args, flag[2:].replace("-", "_"), None)
+        if v is not None:
+            spreads[TARGET_SPREAD_FIELDS[flag]] = v
+    try:
+        return NoiseModel(orientation_axis=args.orientation_axis, scales=scales, **spreads)
+    except NoiseError as exc:
+        text = str(exc)
+        for flag, field in TARGET_SPREAD_FIELDS.items():
+            if f"'{field}'" in text:
+                raise UserError(f"{flag}: {text}") from None
+        raise
 
 
 def print_json(obj) -> None:

@@ -128,13 +128,18 @@ class CaptureSimulation:
         """Total linear momentum (kg m/s) of dynamic bodies and target."""
         s, t = self.s.bodies, self.s.target_body
         b = self.dynamic_bodies()
-        return (s.mass[b, None] * s.v[b]).sum(axis=0) + self.cfg.target.mass * t.vel
+        return (s.mass[b, None] * s.v[b]).sum(axis=0) + self.target_mass * t.vel
+
+    @property
+    def target_mass(self) -> float:
+        """The target's mass in this episode (kg; drawn when the noise model says so)."""
+        return 1.0 / float(self.s.target_body.inv_mass)
 
     def kinetic_energy(self) -> float:
         s, t = self.s.bodies, self.s.target_body
         b = self.dynamic_bodies()
         ke = 0.5 * float((s.mass[b] * (s.v[b] ** 2).sum(axis=1)).sum())
-        ke += 0.5 * self.cfg.target.mass * float(t.vel @ t.vel)
+        ke += 0.5 * self.target_mass * float(t.vel @ t.vel)
         R = kn.quat_to_matrix(t.quat)
         wb = R.T @ t.omega
         ke += 0.5 * float((t.inertia * wb**2).sum())

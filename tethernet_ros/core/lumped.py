@@ -211,8 +211,7 @@ def contact_spheres(cfg: SimConfig, lay: BodyLayout, th: Threads, mass: np.ndarr
     return radius, contact, k_contact, c_contact
 
 
-def kernel_params(design: Design, cfg: SimConfig, th: Threads, target_bound: float,
-                  omega_1: float) -> kn.Params:
+def kernel_params(design: Design, cfg: SimConfig, th: Threads, omega_1: float) -> kn.Params:
     """The kernel's scalar parameters (``kernel.Params``), the step left at 0."""
     return kn.Params(
         dt=0.0, close_force=cfg.closing_force_factor * design.m_c * design.L_n,
@@ -220,8 +219,7 @@ def kernel_params(design: Design, cfg: SimConfig, th: Threads, target_bound: flo
         mu=cfg.friction, mu_static=cfg.friction * cfg.static_friction_scale,
         contact_model=kn.CONTACT_MODELS.index(cfg.contact_model),
         omega_contact=cfg.contact_frequency,
-        zeta_contact=cfg.contact_damping_ratio, tgt_inv_mass=1.0 / cfg.target.mass,
-        tgt_bound=target_bound, tether_lin_density=th.tether_lin_density,
+        zeta_contact=cfg.contact_damping_ratio, tether_lin_density=th.tether_lin_density,
         tether_EA=th.tether_EA, zeta_thread=cfg.damping_ratio,
         thread_damping=kn.THREAD_DAMPING_MODELS.index(cfg.thread_damping), omega_1=omega_1,
         lock_model=kn.LOCK_MODELS.index(cfg.lock_model),

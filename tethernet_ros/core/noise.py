@@ -19,13 +19,14 @@ from . import detmath
 
 #: Noise sources whose spread can be scaled (sensitivity study).
 NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing",
-                                  "spin")
+                                  "spin", "target")
 
 #: The NoiseModel fields that hold a spread (the actuator node takes them as parameters).
 SPREAD_FIELDS: tuple[str, ...] = ("sigma_distance", "sigma_orientation_deg", "sigma_speed",
                                   "sigma_polar_deg", "azimuth_range_deg", "sigma_closing",
                                   "sigma_spin_rate", "sigma_spin_axis_deg",
-                                  "spin_phase_range_deg")
+                                  "spin_phase_range_deg", "sigma_target_mass",
+                                  "sigma_target_inertia", "sigma_target_com")
 
 #: Axes the target's orientation noise may turn it about: the line of sight z (default) or
 #: y (across it); the one home of this rule (docs/noise.md §2).
@@ -78,6 +79,9 @@ class NoiseSample:
     spin_axis_azimuth: float = 0.0
     spin_phase: float = 0.0
     spin_transverse_angle: float = 0.0
+    target_mass_offset: float = 0.0
+    target_inertia_offsets: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    target_com_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @classmethod
     def nominal(cls, orientation_axis: str = "z") -> NoiseSample:
@@ -90,7 +94,8 @@ class NoiseSample:
 
     def to_dict(self) -> dict:
         d = asdict(self)
-        for k in ("speed_offsets", "polar_angles", "azimuth_angles"):
+        for k in ("speed_offsets", "polar_angles", "azimuth_angles", "target_inertia_offsets",
+                  "target_com_offset"):
             d[k] = list(d[k])
         return d
 
@@ -105,7 +110,10 @@ class NoiseModel:
     sigma_closing (m); orientation_axis 'z' (line of sight, default) or 'y'.  The tumble's
     (``core.tumble``, acting only when its rate is > 0): sigma_spin_rate (relative, of the
     rate), sigma_spin_axis_deg (tilt of the axis, deg, in a uniform direction),
-    spin_phase_range_deg (initial phase uniform on [0, range) deg).
+    spin_phase_range_deg (initial phase uniform on [0, range) deg).  The target's mass
+    properties (off by default): sigma_target_mass (relative, of the mass),
+    sigma_target_inertia (relative, of each principal moment), sigma_target_com (m, of the
+    centre of mass along each body axis).
     """
 
     sigma_distance: float = 0.25
@@ -117,6 +125,9 @@ class NoiseModel:
     sigma_spin_rate: float = 0.1
     sigma_spin_axis_deg: float = 5.0
     spin_phase_range_deg: float = 360.0
+    sigma_target_mass: float = 0.0
+    sigma_target_inertia: float = 0.0
+    sigma_target_com: float = 0.0
     orientation_axis: str = "z"
     scales: dict = field(default_factory=lambda: {s: 1.0 for s in NOISE_SOURCES})
 
@@ -147,10 +158,11 @@ class NoiseModel:
 
         The draw order is fixed (distance, orientation, then per corner speed, polar,
         azimuth, then closing, then the tumble's rate, axis tilt and its direction, phase
-        and transverse angle), and every quantity is drawn whatever its scale, so sample i
+        and transverse angle, then the target's mass, its three moments and its centre of
+        mass along x, y, z), and every quantity is drawn whatever its scale, so sample i
         gets the same underlying random numbers under every design and scale (common random
-        numbers); the tumble's draws come last, so every earlier draw is what it was
-        before the tumble existed.
+        numbers); the tumble's draws, then the target's, come after the others, so every
+        earlier draw is what it was before they existed.
         """
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise NoiseError(f"noise field 'seed': got {seed!r}; must be an integer >= 0")
@@ -171,6 +183,10 @@ class NoiseModel:
         u_spin_dir = rng.random()
         u_spin_phase = rng.random()
         u_transverse = rng.random()
+        z_mass = normal(rng)
+        z_inertia = [normal(rng) for _ in range(3)]
+        z_com = [normal(rng) for _ in range(3)]
+        st = self.scales["target"]
         s = self.scales
         deg = math.pi / 180.0
         turn = 2.0 * math.pi
@@ -188,6 +204,10 @@ class NoiseModel:
             spin_axis_azimuth=float(u_spin_dir * turn),
             spin_phase=float(u_spin_phase * self.spin_phase_range_deg * deg * s["spin"]),
             spin_transverse_angle=float(u_transverse * turn),
+            target_mass_offset=float(z_mass * self.sigma_target_mass * st),
+            target_inertia_offsets=tuple(float(z * self.sigma_target_inertia * st)
+                                         for z in z_inertia),
+            target_com_offset=tuple(float(z * self.sigma_target_com * st) for z in z_com),
         )
 
 

@@ -52,6 +52,9 @@ class World:
     spin_rate: float = 0.0
     spin_axis: tuple = (0.0, 1.0, 0.0)
     spin_phase: float = 0.0
+    target_mass_offset: float = 0.0
+    target_inertia_offsets: tuple = (0.0, 0.0, 0.0)
+    target_com_offset: tuple = (0.0, 0.0, 0.0)
 
 
 def actions_for(design: Design, sample: NoiseSample | None) -> Actions:
@@ -71,7 +74,30 @@ def world_for(design: Design, sample: NoiseSample | None,
     if sample is None:
         return World(distance=design.d_L, **spin)
     return World(distance=design.d_L + sample.distance_offset, rotation=sample.orientation_angle,
-                 rotation_axis=sample.orientation_axis, **spin)
+                 rotation_axis=sample.orientation_axis,
+                 target_mass_offset=sample.target_mass_offset,
+                 target_inertia_offsets=tuple(sample.target_inertia_offsets),
+                 target_com_offset=tuple(sample.target_com_offset), **spin)
+
+
+def target_mass_properties(shape, world: World) -> tuple[float, np.ndarray, np.ndarray]:
+    """(mass (kg), principal moments (3,) (kg m^2), centre-of-mass offset (3,) (m, in the
+    shape's body frame)) of the target of one episode: the shape's, with the world's draws
+    of their uncertainty (docs/noise.md §1): the mass times (1 + its relative offset), at
+    least 1 % of it; each moment times the mass's factor and (1 + its own offset), at
+    least 1 % of it, the largest then held to the sum of the other two (a physical body);
+    the centre of mass moved by the offset (the moments about it taken as drawn: the
+    parallel-axis change, m |offset|^2, is a part of their own uncertainty)."""
+    if world.target_mass_offset == 0.0 and not any(world.target_inertia_offsets) \
+            and not any(world.target_com_offset):
+        return shape.mass, np.array(shape.inertia, dtype=np.float64), np.zeros(3)
+    f = max(1.0 + world.target_mass_offset, 0.01)
+    moments = [float(i) * f * max(1.0 + d, 0.01)
+               for i, d in zip(shape.inertia, world.target_inertia_offsets)]
+    k = max(range(3), key=lambda j: moments[j])
+    rest = sum(moments[j] for j in range(3) if j != k)
+    moments[k] = min(moments[k], rest)
+    return shape.mass * f, np.array(moments), np.array(world.target_com_offset, dtype=np.float64)
 
 
 def initial_attitude(world: World, inertia: np.ndarray, attitude_deg=()):
@@ -255,7 +281,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                           dtype=np.int64)
 
     target = target_shape(cfg.target)
-    quat, omega, ang_mom = initial_attitude(world, target.inertia, cfg.target.attitude_deg)
+    mass, inertia, com_offset = target_mass_properties(target, world)
+    quat, omega, ang_mom = initial_attitude(world, inertia, cfg.target.attitude_deg)
     net_nodes = np.arange(lay.n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,
@@ -271,8 +298,9 @@ def build_scenario(design: Design, actions: Actions, world: World,
                               links=other.tether_links, centre=lay.centre, winch=lay.chaser),
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
-            ang_mom=ang_mom, inertia=target.inertia.copy(), geometry=target.geometry()),
-        params=kernel_params(design, cfg, th, target.bounding_radius, omega_1),
+            ang_mom=ang_mom, inertia=inertia, inv_mass=1.0 / mass, com_offset=com_offset,
+            bound=target.bounding_radius + detmath.norm3(com_offset), geometry=target.geometry()),
+        params=kernel_params(design, cfg, th, omega_1),
         close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),
         warm=kn.new_warm_start(n, len(other.pairs), nb, len(ring_pairs)), dt=0.0,

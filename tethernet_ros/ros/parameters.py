@@ -199,6 +199,14 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                                             "tilt of the target's spin axis (deg)"),
         "noise.spin_phase_range_deg": spread("spin_phase_range_deg", "the initial spin "
                                              "phase's range: U(0, range) (deg)"),
+        "noise.sigma_target_mass": spread("sigma_target_mass", "standard deviation of the "
+                                          "target's mass, relative to it (-; 0: known)"),
+        "noise.sigma_target_inertia": spread("sigma_target_inertia", "standard deviation of "
+                                             "each principal moment of the target, relative "
+                                             "(-; 0: known)"),
+        "noise.sigma_target_com": spread("sigma_target_com", "standard deviation of the "
+                                         "target's centre of mass along each body axis (m; "
+                                         "0: known)"),
         "builtin_policy": Param(True, "answer lockstep episodes' measurements with the "
                                 "closing policy of the episode's configuration (threshold or "
                                 "adaptive); false: leave the decisions to another node (a "

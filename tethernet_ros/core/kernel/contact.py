@@ -43,7 +43,8 @@ def contact_forces(model, data, scr, l):
     om_c = prm.omega_contact
     k_c_unit = om_c * om_c                      # contact stiffness per kg
     c_c_unit = 2.0 * prm.zeta_contact * om_c    # contact damping per kg
-    bound = prm.tgt_bound
+    bound = tg.bound[l]
+    cx, cy, cz = tg.com_offset[0, l], tg.com_offset[1, l], tg.com_offset[2, l]
     bp = data.broad
     mode = model.broadphase
     n_contacts = 0
@@ -75,7 +76,7 @@ def contact_forces(model, data, scr, l):
             if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
                 b_.contact_mask[i, l] = CONTACT_ON
             continue
-        sd, nbx, nby, nbz = target_sdf(bx, by, bz, model.target.geometry)
+        sd, nbx, nby, nbz = target_sdf(bx + cx, by + cy, bz + cz, model.target.geometry)
         bp.tests[l] += 1
         delta = radius[i] - sd
         if proven:                                 # mode check: was it apart after all?

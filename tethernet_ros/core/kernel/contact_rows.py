@@ -55,7 +55,7 @@ def prepare_contact_rows(model, data, scr, l):
         cvz = tvz + ox * ry - oy * rx
         vrel = np.sqrt((v[i, 0, l] - cvx) ** 2 + (v[i, 1, l] - cvy) ** 2 + (v[i, 2, l] - cvz) ** 2)
         reach = radius[i] + h * vrel + SPECULATIVE_MARGIN
-        rb = prm.tgt_bound + reach
+        rb = tg.bound[l] + reach
         if rx * rx + ry * ry + rz * rz > rb * rb:
             ws.contact_pn[i, l] = 0.0
             if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
@@ -74,7 +74,8 @@ def prepare_contact_rows(model, data, scr, l):
             if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
                 b_.contact_mask[i, l] = CONTACT_ON
             continue
-        sd, nbx, nby, nbz = target_sdf(bx, by, bz, model.target.geometry)
+        sd, nbx, nby, nbz = target_sdf(bx + tg.com_offset[0, l], by + tg.com_offset[1, l],
+                                       bz + tg.com_offset[2, l], model.target.geometry)
         bp.tests[l] += 1
         C = sd - radius[i]                         # gap (m), negative: penetration
         if proven:                                 # mode check: would it have been clear?

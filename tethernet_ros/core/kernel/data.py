@@ -41,8 +41,13 @@ LinkData = namedtuple("LinkData", "rest k c active")
 RingData = namedtuple("RingData", "locked maxdist lock_step")
 
 #: The target: pos, vel, omega (world angular velocity, rad/s), ang_mom (world angular
-#: momentum about the CoM, kg m^2/s) (3, K); quat (4, K) body -> world (w, x, y, z).
-TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom")
+#: momentum about the CoM, kg m^2/s) (3, K); quat (4, K) body -> world (w, x, y, z); its
+#: mass properties, drawn per lane: inertia (3, K) principal moments (kg m^2), inv_mass (K,)
+#: (1/kg), com_offset (3, K) the centre of mass in the shape's frame (m: a body-frame point
+#: b is the shape's point b + com_offset), bound (K,) the radius (m) of a sphere about the
+#: centre of mass enclosing the body.
+TargetData = namedtuple("TargetData", "pos quat vel omega ang_mom inertia inv_mass com_offset "
+                                      "bound")
 
 #: The implicit method's impulses of the last step (N s), its warm start: grid_ph
 #: (n, n - 1, K), grid_pv (n - 1, n, K), link_p (M, K) (negative: tension), contact_pn
@@ -104,7 +109,11 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
                       lock_step=_lanes(drawstring.lock_step, np.int64)),
         target=TargetData(pos=_lanes(target_body.pos), quat=_lanes(target_body.quat),
                           vel=_lanes(target_body.vel), omega=_lanes(target_body.omega),
-                          ang_mom=_lanes(target_body.ang_mom)),
+                          ang_mom=_lanes(target_body.ang_mom),
+                          inertia=_lanes(target_body.inertia),
+                          inv_mass=_lanes(target_body.inv_mass),
+                          com_offset=_lanes(target_body.com_offset),
+                          bound=_lanes(target_body.bound)),
         warm=WarmStart(*(_lanes(a) for a in warm)),
         events=_lanes(events, np.int64),
         close_threshold=np.array([float(close_threshold)]),

@@ -16,13 +16,12 @@ from .broadphase import BROAD_ON
 #: Scalar model parameters.  dt (s); close_force F_c (N) per drawstring pair; lock_dist (m);
 #: mu, mu_static: kinetic and static Coulomb friction coefficients; contact_model (index
 #: into CONTACT_MODELS); omega_contact (rad/s), zeta_contact: contact natural frequency
-#: ("frequency" model) and damping ratio; tgt_inv_mass (1/kg); tgt_bound: radius of a
-#: sphere about the target's CoM enclosing it (m); tether_lin_density (kg/m), tether_EA (N),
+#: ("frequency" model) and damping ratio; tether_lin_density (kg/m), tether_EA (N),
 #: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
 #: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
 #: restitution: the implicit method's coefficient of restitution of a new impact (0: none).
 Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
-                              "contact_model omega_contact zeta_contact tgt_inv_mass tgt_bound "
+                              "contact_model omega_contact zeta_contact "
                               "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
                               "lock_model restitution")
 
@@ -74,9 +73,9 @@ ControlModel = namedtuple("ControlModel", "policy period latency ref_nodes ref_w
 #: the other threads), centre the net's centre node, winch the body carrying the winch.
 TetherModel = namedtuple("TetherModel", "nodes links centre winch")
 
-#: The target's constants: principal moments of inertia (3,) (kg m^2) and its shape
-#: (``geometry.TargetGeometry``).
-TargetModel = namedtuple("TargetModel", "inertia geometry")
+#: The target's constant: its shape (``geometry.TargetGeometry``); its mass properties are
+#: per lane (``data.TargetData``: the noise model may draw them, docs/noise.md §1).
+TargetModel = namedtuple("TargetModel", "geometry")
 
 #: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step; broadphase:
 #: the contacts' broad phase (index into broadphase.BROADPHASE_MODES; it changes no result).
@@ -132,8 +131,7 @@ def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel,
         ring=RingModel(pairs=drawstring.pairs),
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
                            winch=int(tether.winch)),
-        target=TargetModel(inertia=np.ascontiguousarray(target_body.inertia, dtype=np.float64),
-                           geometry=target_body.geometry),
+        target=TargetModel(geometry=target_body.geometry),
         control=control, params=params, iterations=int(iterations),
         broadphase=int(broadphase))
 

@@ -23,7 +23,7 @@ def _sub_rotation(q, L, inertia, axis, dt, l):
     """Torque-free flow of L_axis^2 / (2 I_axis) over dt in lane l: q <- q (x) r and
     L <- Q(r)^T L, r the Cayley quaternion of the angle L_axis dt / I_axis about the body
     axis."""
-    t = 0.5 * dt * L[axis, l] / inertia[axis]
+    t = 0.5 * dt * L[axis, l] / inertia[axis, l]
     c = 1.0 / np.sqrt(1.0 + t * t)
     s = t * c
     cp = c * c - s * s   # cos and sin of the rotation angle
@@ -67,8 +67,8 @@ def integrate_target(model, data, scr, l, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt
     Lw = tg.ang_mom
     R = scr.R
     L = scr.Lb
-    inertia = model.target.inertia
-    inv_mass = model.params.tgt_inv_mass
+    inertia = tg.inertia
+    inv_mass = tg.inv_mass[l]
     vel[0, l] += dt * inv_mass * fx_t
     vel[1, l] += dt * inv_mass * fy_t
     vel[2, l] += dt * inv_mass * fz_t
@@ -98,10 +98,11 @@ def integrate_target(model, data, scr, l, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt
 
 @njit(cache=True, inline='always', error_model='numpy')
 def angular_velocity_lane(R, inertia, Lw, L, omega, l):
-    """omega[:, l] = R I^-1 R^T Lw of lane l (rad/s, world) from its attitude R[:, :, l]
-    and world angular momentum Lw[:, l] (kg m^2/s); L scratch."""
+    """omega[:, l] = R I^-1 R^T Lw of lane l (rad/s, world) from its attitude R[:, :, l],
+    principal moments inertia[:, l] and world angular momentum Lw[:, l] (kg m^2/s); L
+    scratch."""
     for c in range(3):
         L[c, l] = (R[0, c, l] * Lw[0, l] + R[1, c, l] * Lw[1, l] + R[2, c, l] * Lw[2, l]) \
-            / inertia[c]
+            / inertia[c, l]
     for c in range(3):
         omega[c, l] = R[c, 0, l] * L[0, l] + R[c, 1, l] * L[1, l] + R[c, 2, l] * L[2, l]

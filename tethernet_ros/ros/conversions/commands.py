@@ -53,6 +53,12 @@ def commands_from_msgs(launch, closing) -> tuple[Actions, World]:
     if rate != 0.0:
         spin = dict(spin_rate=rate, spin_axis=tuple(float(c) for c in launch.spin_axis),
                     spin_phase=float(launch.spin_phase))
+    drawn = getattr(launch, "noise", None)                # the target's mass properties' draws
     world = World(distance=float(launch.distance_to_target), rotation=float(launch.target_rotation),
-                  rotation_axis=launch.rotation_axis or "z", **spin)
+                  rotation_axis=launch.rotation_axis or "z",
+                  target_mass_offset=float(getattr(drawn, "target_mass_offset", 0.0)),
+                  target_inertia_offsets=tuple(float(v) for v in getattr(
+                      drawn, "target_inertia_offsets", (0.0, 0.0, 0.0))),
+                  target_com_offset=tuple(float(v) for v in getattr(
+                      drawn, "target_com_offset", (0.0, 0.0, 0.0))), **spin)
     return actions, world

@@ -62,9 +62,10 @@ def noise_sample_msg(sample: NoiseSample | None, model: NoiseModel | None):
         m.seed = int(sample.seed)
         for name in ("distance_offset", "orientation_angle", "closing_offset",
                      "spin_rate_offset", "spin_axis_tilt", "spin_axis_azimuth", "spin_phase",
-                     "spin_transverse_angle"):
+                     "spin_transverse_angle", "target_mass_offset"):
             setattr(m, name, float(getattr(sample, name)))
-        for name in ("speed_offsets", "polar_angles", "azimuth_angles"):
+        for name in ("speed_offsets", "polar_angles", "azimuth_angles", "target_inertia_offsets",
+                     "target_com_offset"):
             setattr(m, name, [float(v) for v in getattr(sample, name)])
         m.orientation_axis = sample.orientation_axis
     else:
@@ -89,5 +90,11 @@ def noise_sample_from_msg(m) -> tuple[NoiseSample, dict[str, float]]:
             closing_offset=float(m.closing_offset), orientation_axis=m.orientation_axis or "z",
             spin_rate_offset=float(m.spin_rate_offset), spin_axis_tilt=float(m.spin_axis_tilt),
             spin_axis_azimuth=float(m.spin_axis_azimuth), spin_phase=float(m.spin_phase),
-            spin_transverse_angle=float(m.spin_transverse_angle))
-    return sample, {k: float(getattr(m, k)) for k in SPREAD_FIELDS}
+            spin_transverse_angle=float(m.spin_transverse_angle),
+            # (a bag from before the target's noise: none)
+            target_mass_offset=float(getattr(m, "target_mass_offset", 0.0)),
+            target_inertia_offsets=tuple(float(v) for v in getattr(m, "target_inertia_offsets",
+                                                                   (0.0, 0.0, 0.0))),
+            target_com_offset=tuple(float(v) for v in getattr(m, "target_com_offset",
+                                                              (0.0, 0.0, 0.0))))
+    return sample, {k: float(getattr(m, k, 0.0)) for k in SPREAD_FIELDS}
