@@ -73,6 +73,9 @@ EXPECTED_FIELDS = {
         "speed_offsets": "double[4]", "polar_angles": "double[4]", "azimuth_angles": "double[4]",
         "closing_offset": "double", "spin_rate_offset": "double", "spin_axis_tilt": "double",
         "spin_axis_azimuth": "double", "spin_phase": "double", "spin_transverse_angle": "double",
+        "target_mass_offset": "double", "target_inertia_offsets": "double[3]",
+        "target_com_offset": "double[3]", "sigma_target_mass": "double",
+        "sigma_target_inertia": "double", "sigma_target_com": "double",
         "sigma_distance": "double", "sigma_orientation_deg": "double", "sigma_speed": "double",
         "sigma_polar_deg": "double", "azimuth_range_deg": "double", "sigma_closing": "double",
         "sigma_spin_rate": "double", "sigma_spin_axis_deg": "double",
@@ -104,7 +107,7 @@ EXPECTED_FIELDS = {
     NoiseSettings: {
         "distance_scale": "double", "orientation_scale": "double", "speed_scale": "double",
         "polar_scale": "double", "azimuth_scale": "double", "closing_scale": "double",
-        "spin_scale": "double", "orientation_axis": "string",
+        "spin_scale": "double", "target_scale": "double", "orientation_axis": "string",
     },
     RunCapture.Request: {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
@@ -230,7 +233,7 @@ def test_defaults():
     # noise settings left out of a request are the nominal spreads, not "no noise"
     n = RunCapture.Request().noise
     assert [n.distance_scale, n.orientation_scale, n.speed_scale, n.polar_scale,
-            n.azimuth_scale, n.closing_scale, n.spin_scale] == [1.0] * 7
+            n.azimuth_scale, n.closing_scale, n.spin_scale, n.target_scale] == [1.0] * 8
     assert n.orientation_axis == "z" and RunCapture.Request().nominal is False
     # a request that leaves its tumble out keeps the capture node's configuration
     r = RunCapture.Request()
@@ -264,11 +267,23 @@ def test_loop_messages_carry_the_bits():
         msg = Tumble(**fields)
         with pytest.raises(conv.RequestError, match=words):
             conv.tumble_from_msg(msg)
-    model = NoiseModel(sigma_spin_rate=0.3, scales={"spin": 2.0})
+    model = NoiseModel(sigma_spin_rate=0.3, sigma_target_mass=0.05, sigma_target_inertia=0.1,
+                       sigma_target_com=0.2, scales={"spin": 2.0, "target": 0.5})
     sample = model.sample(17)
     drawn, spreads = conv.noise_sample_from_msg(conv.noise_sample_msg(sample, model))
     assert drawn == sample and spreads == model.spreads()
     assert conv.noise_sample_msg(None, None).nominal
+    # the target's drawn mass properties reach the simulation node's world
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.scenario import actions_for, world_for
+
+    design = REFERENCE_DESIGNS["time-min"]
+    launch = conv.launch_command_msg(actions_for(design, sample), world_for(design, sample),
+                                     17, (1, 2), sample=sample, model=model)
+    closing = conv.closing_command_msg(actions_for(design, sample), (1, 2))
+    _, world = conv.commands_from_msgs(launch, closing)
+    assert world == world_for(design, sample)
+    assert world.target_mass_offset != 0.0 and all(world.target_com_offset)
 
 
 @pytest.fixture()

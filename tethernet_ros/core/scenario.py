@@ -281,8 +281,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                           dtype=np.int64)
 
     target = target_shape(cfg.target)
-    mass, inertia, com_offset = target_mass_properties(target, world)
-    quat, omega, ang_mom = initial_attitude(world, inertia, cfg.target.attitude_deg)
+    tgt_mass, tgt_inertia, tgt_com = target_mass_properties(target, world)
+    quat, omega, ang_mom = initial_attitude(world, tgt_inertia, cfg.target.attitude_deg)
     net_nodes = np.arange(lay.n_net, dtype=np.int64)
     sc = Scenario(
         design=design, config=cfg, target=target,
@@ -298,8 +298,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                               links=other.tether_links, centre=lay.centre, winch=lay.chaser),
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
-            ang_mom=ang_mom, inertia=inertia, inv_mass=1.0 / mass, com_offset=com_offset,
-            bound=target.bounding_radius + detmath.norm3(com_offset), geometry=target.geometry()),
+            ang_mom=ang_mom, inertia=tgt_inertia, inv_mass=1.0 / tgt_mass, com_offset=tgt_com,
+            bound=target.bounding_radius + detmath.norm3(tgt_com), geometry=target.geometry()),
         params=kernel_params(design, cfg, th, omega_1),
         close_threshold=float(actions.closing_displacement), iterations=cfg.implicit_iterations,
         events=kn.new_events(),

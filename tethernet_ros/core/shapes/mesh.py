@@ -20,6 +20,7 @@ Units: m, kg, kg m^2.
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 from functools import cached_property
 from pathlib import Path
@@ -54,9 +55,35 @@ class MeshError(ValueError):
     """A mesh file that cannot be a target: the message names the file and the defect."""
 
 
+def read_arrays(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) and faces (F, 3) as the file holds them, by trimesh's loaders.  STL,
+    OBJ, PLY and OFF are read without trimesh's processing (which calls BLAS: the project
+    keeps every BLAS result away from an episode, docs/model.md §13); a GLB/glTF scene is
+    flattened by trimesh, whose node transforms are matrix products."""
+    import trimesh
+    from trimesh.exchange.load import mesh_loaders
+
+    ext = path.suffix.lower()[1:]
+    if ext in ("glb", "gltf"):
+        mesh = trimesh.load(str(path), force="mesh", process=False)
+        return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    with open(path, "rb") as f:
+        kw = mesh_loaders[ext](f, file_type=ext)
+    parts = list(kw["geometry"].values()) if "geometry" in kw else [kw]
+    vertices, faces, base = [], [], 0
+    for part in parts:
+        v = np.asarray(part.get("vertices", np.zeros((0, 3))), dtype=np.float64).reshape(-1, 3)
+        f = np.asarray(part.get("faces", np.zeros((0, 3))), dtype=np.int64).reshape(-1, 3)
+        vertices.append(v)
+        faces.append(f + base)
+        base += len(v)
+    return np.concatenate(vertices), np.concatenate(faces)
+
+
 def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Vertices (V, 3) (m), faces (F, 3) of a closed, outward-oriented mesh file, and the
-    repairs made (one string each)."""
+    repairs made (one string each).  Vertices that are equal are merged (exactly: a
+    sorted ``numpy.unique``); trimesh judges and repairs the topology."""
     import trimesh
 
     name = str(path)
@@ -64,15 +91,19 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
         raise MeshError(f"{name}: format {path.suffix or '(none)'} not read; must be one of "
                         f"{', '.join(FORMATS)}")
     try:
-        mesh = trimesh.load(str(path), force="mesh", process=True)
+        raw_v, raw_f = read_arrays(path)
     except Exception as exc:          # trimesh raises many kinds for unreadable files
         raise MeshError(f"{name}: not readable as a mesh ({type(exc).__name__}: {exc})") from exc
-    if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
+    if len(raw_f) == 0 or len(raw_v) == 0:
         raise MeshError(f"{name}: holds no triangles")
-    repairs = []
+    if not np.all(np.isfinite(raw_v)):
+        raise MeshError(f"{name}: vertices that are not finite numbers")
     scale = UNITS[units]
     if scale != 1.0:
-        mesh.apply_scale(scale)
+        raw_v = raw_v * scale
+    vertices, inverse = np.unique(raw_v, axis=0, return_inverse=True)
+    mesh = trimesh.Trimesh(vertices, inverse.reshape(-1)[raw_f], process=False)
+    repairs = []
     n0 = len(mesh.faces)
     mesh.update_faces(mesh.nondegenerate_faces())
     mesh.update_faces(mesh.unique_faces())
@@ -81,7 +112,8 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
         repairs.append(f"removed {n0 - len(mesh.faces)} degenerate or duplicate faces")
     if len(mesh.faces) > MAX_FACES:
         raise MeshError(f"{name}: {len(mesh.faces)} faces; at most {MAX_FACES} (decimate it)")
-    diag = float(np.linalg.norm(mesh.bounds[1] - mesh.bounds[0]))
+    v = np.asarray(mesh.vertices)
+    diag = math.sqrt(math.fsum(float(d) ** 2 for d in v.max(axis=0) - v.min(axis=0)))
     if not MIN_SIZE <= diag <= MAX_SIZE:
         hint = ""
         for u, s in sorted(UNITS.items(), key=lambda kv: kv[1]):
@@ -101,14 +133,26 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
         if not mesh.is_winding_consistent:
             raise MeshError(f"{name}: inconsistent face winding that trimesh cannot fix")
         repairs.append("made the face winding consistent")
-    if mesh.volume < 0.0:
-        mesh.invert()
+    faces = np.ascontiguousarray(mesh.faces, dtype=np.int64)
+    vertices = np.ascontiguousarray(mesh.vertices, dtype=np.float64)
+    if signed_volume(vertices, faces) < 0.0:
+        faces = np.ascontiguousarray(faces[:, ::-1])
         repairs.append("turned inverted normals outward")
-    if len(mesh.split(only_watertight=False)) > 1 and _parts_overlap(mesh):
+    if _parts_overlap(mesh):
         raise MeshError(f"{name}: separate bodies that overlap; a target must be one body "
                         "or bodies apart (union them first)")
-    return (np.ascontiguousarray(mesh.vertices, dtype=np.float64),
-            np.ascontiguousarray(mesh.faces, dtype=np.int64), repairs)
+    return vertices, faces, repairs
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """The volume (m^3) the faces enclose, negative for inward normals (fsum of the
+    tetrahedra (v0, a, b, c))."""
+    v = (vertices - vertices[0]).tolist()
+    terms = []
+    for a, b, c in faces.tolist():
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = v[a], v[b], v[c]
+        terms.append(ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx))
+    return math.fsum(terms) / 6.0
 
 
 def _boundary_edges(mesh) -> int:
@@ -118,8 +162,19 @@ def _boundary_edges(mesh) -> int:
 
 
 def _parts_overlap(mesh) -> bool:
-    """Whether two of the mesh's connected bodies have overlapping boxes."""
-    boxes = [p.bounds for p in mesh.split(only_watertight=False)]
+    """Whether two of the mesh's connected bodies (by shared edges) have overlapping
+    boxes."""
+    import trimesh
+
+    parts = trimesh.graph.connected_components(mesh.face_adjacency, min_len=1,
+                                               nodes=np.arange(len(mesh.faces)))
+    if len(parts) < 2:
+        return False
+    v = np.asarray(mesh.vertices)
+    boxes = []
+    for p in parts:
+        pts = v[np.asarray(mesh.faces)[p].reshape(-1)]
+        boxes.append((pts.min(axis=0), pts.max(axis=0)))
     for i in range(len(boxes)):
         for j in range(i + 1, len(boxes)):
             if np.all(boxes[i][0] < boxes[j][1]) and np.all(boxes[j][0] < boxes[i][1]):
