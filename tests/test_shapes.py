@@ -365,3 +365,26 @@ def test_uncertain_target_batched_lanes_equal_single_runs():
     assert single[3].max_penetration > 0.0
     assert repr((plain.settled_cqi, plain.max_penetration)) != \
         repr((single[3].settled_cqi, single[3].max_penetration))
+
+
+def test_a_design_file_names_its_target(tmp_path):
+    from tethernet_ros.cli import build_parser
+    from tethernet_ros.commands.common import config_from_args
+    from tethernet_ros.errors import UserError
+
+    trimesh.creation.box((1.0, 2.0, 3.0)).export(tmp_path / "part.stl")
+    design = tmp_path / "net.yaml"
+    design.write_text("m_c: 2.0\nL_n: 15.0\nr_n: 0.002\nd_L: 20.0\nV_e: [2, 2, 5]\nd_c: 0.5\n"
+                      "target: {mesh: part.stl, mass: 100, attitude_deg: [90, 0, 0]}\n")
+    args = build_parser().parse_args(["capture", "--design", str(design)])
+    t = config_from_args(args).target
+    assert t.mesh == str(tmp_path / "part.stl") and t.mass == 100.0 and t.name == "part"
+    assert t.attitude_deg == (90.0, 0.0, 0.0)
+    # the command line's --target over the file's
+    args = build_parser().parse_args(["capture", "--design", str(design), "--target", "envisat"])
+    t = config_from_args(args).target
+    assert (t.name, t.mass, t.attitude_deg) == ("envisat", 8211.0, (90.0, 0.0, 0.0))
+    design.write_text(design.read_text().replace("mass: 100", "mass: -3"))
+    args = build_parser().parse_args(["capture", "--design", str(design)])
+    with pytest.raises((UserError, ConfigError), match=r"--design .*\(target:\).*'mass'"):
+        config_from_args(args)

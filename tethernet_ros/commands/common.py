@@ -42,7 +42,8 @@ def add_design_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--design", required=True, metavar="NAME|FILE.yaml",
                    help="reference design (baseline, suboptimal, mass-min, time-min) or a YAML "
                         "file with keys m_c, L_n, r_n, d_L, V_e, d_c (and optionally a tumble: "
-                        "mapping: rate_deg_s, axis, phase_deg)")
+                        "mapping: rate_deg_s, axis, phase_deg, and a target: mapping: name or "
+                        "mesh, mass, units, com, inertia, attitude_deg)")
 
 
 def read_design_file(name_or_path: str) -> tuple[Design, dict | None]:
@@ -62,10 +63,12 @@ def read_design_file(name_or_path: str) -> tuple[Design, dict | None]:
         return load_design(name_or_path), None
     data = dict(data)
     tumble = data.pop("tumble", None)
+    data.pop("target", None)                          # (design_file_target reads it)
     inner = data.get("design")
     if isinstance(inner, dict):
         inner = dict(inner)
         tumble = inner.pop("tumble", tumble)
+        inner.pop("target", None)
         data = inner
     if tumble is not None and not isinstance(tumble, dict):
         raise DesignError("tumble", f"in {str(path)!r}: got {tumble!r}; must be a mapping of "
@@ -205,6 +208,33 @@ def target_fields(text: str) -> dict:
         raise UserError(f"--target: {exc}") from None
 
 
+def design_file_target(path: Path) -> dict | None:
+    """The ``target:`` mapping of a design file (TargetConfig fields, at the top level or
+    beside the design's keys under ``design:``; a relative ``mesh`` is relative to the
+    file's folder), None if it has none."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError:
+        return None
+    if not isinstance(data, dict):
+        return None
+    target = data.get("target")
+    if isinstance(data.get("design"), dict):
+        target = data["design"].get("target", target)
+    if target is None:
+        return None
+    if not isinstance(target, dict):
+        raise UserError(f"--design {str(path)!r}: target: got {target!r}; must be a mapping of "
+                        "target fields (name, mesh, mass, units, com, inertia, attitude_deg)")
+    target = dict(target)
+    mesh = target.get("mesh")
+    if mesh and not Path(str(mesh)).expanduser().is_absolute():
+        target["mesh"] = str(path.parent / str(mesh))
+    return target
+
+
 def _design_tumble(args) -> tuple[dict | None, str]:
     """The ``tumble:`` mapping of the --design file, if it is a file with one."""
     name = getattr(args, "design", None)
@@ -214,7 +244,7 @@ def _design_tumble(args) -> tuple[dict | None, str]:
 
 
 def config_from_args(args, **overrides):
-    """SimConfig from --config (if given), the --design file's ``tumble:`` over it, the
+    """SimConfig from --config (if given), the --design file's ``tumble:`` and ``target:`` over it, the
     scenario flags (--tumble-*, --policy, --net-point, --sensing-rate, --latency) over
     that, and ``overrides`` applied on top.  A bad value is refused naming its flag (or
     file) and its range."""
@@ -238,12 +268,21 @@ def config_from_args(args, **overrides):
     if tumble is not None:
         layers.append(({"tumble": tumble}, {"tumble." + k: f"--design {design_file} (tumble:)"
                                             for k in tumble}))
+    target = design_file_target(Path(design_file)) if design_file else None
+    if target is not None:
+        layers.append(({"target": target}, {"target." + k: f"--design {design_file} (target:)"
+                                            for k in target}))
     layers.append(scenario_overrides(args))
     where: dict = {}
     for values, flags in layers:
         for group, fields_ in values.items():
             base = data.get(group)
-            data[group] = {**(base if isinstance(base, dict) else {}), **fields_}
+            base = dict(base) if isinstance(base, dict) else {}
+            if group == "target" and "name" in fields_:
+                # a target named anew keeps only where it is turned, not the mass, file
+                # or mass properties of the one it replaces
+                base = {k: v for k, v in base.items() if k == "attitude_deg"}
+            data[group] = {**base, **fields_}
         where.update(flags)
     data.update(overrides)
     try:
