@@ -388,3 +388,19 @@ def test_a_design_file_names_its_target(tmp_path):
     args = build_parser().parse_args(["capture", "--design", str(design)])
     with pytest.raises((UserError, ConfigError), match=r"--design .*\(target:\).*'mass'"):
         config_from_args(args)
+
+
+def test_the_optimiser_searches_each_target_within_its_own_bounds(tmp_path):
+    from tethernet_ros.core.design import DESIGN_BOUNDS, VARIABLE_NAMES
+    from tethernet_ros.design_problem import SimulatorProblem
+
+    def bounds(target):
+        return SimulatorProblem(None, SimConfig(target=target)).bounds
+
+    assert bounds(TargetConfig()) == [DESIGN_BOUNDS[n] for n in VARIABLE_NAMES]
+    envisat = dict(zip(VARIABLE_NAMES, bounds(TargetConfig(name="envisat"))))
+    assert envisat["L_n"] == (32.5, 55.0) and envisat["V_z"] == DESIGN_BOUNDS["V_z"]
+    # a file: the rule on its box (a 5.2 m long box: half the Zenit-2's 10.4 m)
+    box = _mesh_config(tmp_path, trimesh.creation.box((5.2, 1.95, 1.95)))
+    small = dict(zip(VARIABLE_NAMES, bounds(box)))
+    assert small["L_n"] == pytest.approx((6.5, 11.0)) and small["d_c"] == pytest.approx((-1.25, 1.25))

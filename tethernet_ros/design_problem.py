@@ -1,7 +1,8 @@
 """The tether-net simulator as the optimiser's design problem.
 
 :class:`SimulatorProblem` implements :class:`optimizer.problem.DesignProblem`: the design
-vector X = [m_c, L_n, r_n, d_L, V_x, V_y, V_z, d_c] within ``DESIGN_BOUNDS``, the exact
+vector X = [m_c, L_n, r_n, d_L, V_x, V_y, V_z, d_c] within its target's design bounds
+(``DESIGN_BOUNDS``, Table 1, for the Zenit-2; docs/targets.md for the others), the exact
 system mass m_a, and the reliability of a design from the Monte Carlo evaluator
 (:func:`tethernet_ros.montecarlo.evaluate`) on an
 :class:`~tethernet_ros.montecarlo.EpisodeBackend`.  :func:`optimize_design` runs a Case on
@@ -19,7 +20,8 @@ from optimizer.run import run_optimization
 from . import machine, montecarlo
 from .core.config import SimConfig
 from .core.fidelity import FIDELITIES, REFERENCE, at_fidelity
-from .core.design import (DESIGN_BOUNDS, PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
+from .core.shapes.catalogue import design_bounds_of
+from .core.design import (PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
                           system_mass)
 from .core.noise import NoiseModel
 
@@ -44,7 +46,8 @@ class SimulatorProblem:
         #: the fidelity of ``config`` (reference: as given)
         self.fidelity = REFERENCE
         self.noise_model = noise_model or NoiseModel()
-        self.bounds = [tuple(DESIGN_BOUNDS[n]) for n in VARIABLE_NAMES]
+        bounds = design_bounds_of(self.config.target)      # Table 1 for the Zenit-2
+        self.bounds = [tuple(bounds[n]) for n in VARIABLE_NAMES]
         self.horizon = float(self.config.horizon)
 
     def mass(self, x) -> float:

@@ -156,3 +156,17 @@ def mesh_path(entry: CatalogueEntry) -> pathlib.Path:
     """Path of the entry's mesh file in the installed package's data/targets folder."""
     return pathlib.Path(str(importlib.resources.files("tethernet_ros") / "data" / "targets"
                             / entry.mesh))
+
+
+def design_bounds_of(target) -> dict[str, tuple[float, float]]:
+    """The optimiser's bounds for a target (``core.target.TargetConfig``): the source's
+    Table 1 for the analytic Zenit-2, the entry's for a catalogue name, and for a mesh file
+    :func:`design_bounds_for` of its box in the body frame (docs/targets.md, the rule)."""
+    if target.kind == "revolution":
+        return dict(DESIGN_BOUNDS)
+    if not target.mesh and target.name in CATALOGUE:
+        return dict(CATALOGUE[target.name].design_bounds)
+    from . import target_shape
+
+    v = target_shape(target).vertices
+    return design_bounds_for(tuple(float(e) for e in v.max(axis=0) - v.min(axis=0)))
