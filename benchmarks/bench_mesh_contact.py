@@ -128,45 +128,9 @@ def build_kernels():
     import numpy as np
     from numba import njit
 
-    @njit(cache=True, inline="always", error_model="numpy")
-    def closest_on_triangle(px, py, pz, t):
-        """Nearest point of triangle t = (a, b, c) (9 floats) to p (Ericson 5.1.5) and its
-        feature: 0-2 vertex a, b, c; 3 edge ab, 4 edge ac, 5 edge bc; 6 the face."""
-        ax, ay, az = t[0], t[1], t[2]
-        abx, aby, abz = t[3] - ax, t[4] - ay, t[5] - az
-        acx, acy, acz = t[6] - ax, t[7] - ay, t[8] - az
-        apx, apy, apz = px - ax, py - ay, pz - az
-        d1 = abx * apx + aby * apy + abz * apz
-        d2 = acx * apx + acy * apy + acz * apz
-        if d1 <= 0.0 and d2 <= 0.0:
-            return ax, ay, az, 0
-        bpx, bpy, bpz = px - t[3], py - t[4], pz - t[5]
-        d3 = abx * bpx + aby * bpy + abz * bpz
-        d4 = acx * bpx + acy * bpy + acz * bpz
-        if d3 >= 0.0 and d4 <= d3:
-            return t[3], t[4], t[5], 1
-        vc = d1 * d4 - d3 * d2
-        if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-            v = d1 / (d1 - d3)
-            return ax + v * abx, ay + v * aby, az + v * abz, 3
-        cpx, cpy, cpz = px - t[6], py - t[7], pz - t[8]
-        d5 = abx * cpx + aby * cpy + abz * cpz
-        d6 = acx * cpx + acy * cpy + acz * cpz
-        if d6 >= 0.0 and d5 <= d6:
-            return t[6], t[7], t[8], 2
-        vb = d5 * d2 - d1 * d6
-        if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            w = d2 / (d2 - d6)
-            return ax + w * acx, ay + w * acy, az + w * acz, 4
-        va = d3 * d6 - d5 * d4
-        if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-            return (t[3] + w * (t[6] - t[3]), t[4] + w * (t[7] - t[4]),
-                    t[5] + w * (t[8] - t[5]), 5)
-        denom = 1.0 / (va + vb + vc)
-        v = vb * denom
-        w = vc * denom
-        return (ax + abx * v + acx * w, ay + aby * v + acy * w, az + abz * v + acz * w, 6)
+    # the kernel's own (core/kernel/mesh_sdf.py): features 0-2 vertex a, b, c, 3-5 edges
+    # ab, ac, bc, 6 the face
+    from tethernet_ros.core.kernel.mesh_sdf import closest_on_triangle
 
     @njit(cache=True, inline="always", error_model="numpy")
     def hull_sdf(px, py, pz, planes, poff, tris, tpl, toff, sph, exact):
@@ -298,109 +262,18 @@ def build_kernels():
             nrm[q, 1] = b
             nrm[q, 2] = c
 
-    @njit(cache=True, inline="always", error_model="numpy")
-    def cell_sdf(px, py, pz, org, c, dims, far, start, cand, cdist, tris, pn, lo, hi):
-        """Exact signed distance of p to the mesh and the outward normal: the cell of p
-        lists every triangle that can be nearest to a point of the cell; the sign is
-        that of (p - q) . pseudonormal of the nearest feature (exact for a closed
-        mesh).  Cells farther than the band, and points outside the cell grid, return a
-        lower bound of the distance (far[cell], or the distance to the mesh's box)."""
-        ux = (px - org[0]) / c
-        uy = (py - org[1]) / c
-        uz = (pz - org[2]) / c
-        if (ux < 0.0 or uy < 0.0 or uz < 0.0 or ux >= dims[0] or uy >= dims[1]
-                or uz >= dims[2]):
-            ex = max(lo[0] - px, 0.0, px - hi[0])
-            ey = max(lo[1] - py, 0.0, py - hi[1])
-            ez = max(lo[2] - pz, 0.0, pz - hi[2])
-            e = np.sqrt(ex * ex + ey * ey + ez * ez)
-            return e, ex / e, ey / e, ez / e
-        ix, iy, iz = int(ux), int(uy), int(uz)
-        cell = (ix * dims[1] + iy) * dims[2] + iz
-        if start[cell] == start[cell + 1]:
-            return far[cell], 0.0, 0.0, 1.0
-        # distance of p to the cell's centre: a candidate whose distance to the centre
-        # less this is beyond the best so far cannot be nearer (lists sorted by cdist)
-        wx = px - (org[0] + (ix + 0.5) * c)
-        wy = py - (org[1] + (iy + 0.5) * c)
-        wz = pz - (org[2] + (iz + 0.5) * c)
-        rp = np.sqrt(wx * wx + wy * wy + wz * wz)
-        d2 = 1e300
-        qx, qy, qz = px, py, pz
-        bt = 0
-        br = 6
-        for m in range(start[cell], start[cell + 1]):
-            lb = cdist[m] - rp
-            if lb > 0.0 and lb * lb >= d2:
-                break
-            t = cand[m]
-            cx, cy, cz, r = closest_on_triangle(px, py, pz, tris[t])
-            e = (px - cx) ** 2 + (py - cy) ** 2 + (pz - cz) ** 2
-            if e < d2:
-                d2 = e
-                qx, qy, qz = cx, cy, cz
-                bt = t
-                br = r
-        d = np.sqrt(d2)
-        sx = (px - qx) * pn[bt, br, 0] + (py - qy) * pn[bt, br, 1] + (pz - qz) * pn[bt, br, 2]
-        sg = 1.0 if sx >= 0.0 else -1.0
-        if d > 1e-12:
-            return sg * d, sg * (px - qx) / d, sg * (py - qy) / d, sg * (pz - qz) / d
-        return 0.0, pn[bt, 6, 0], pn[bt, 6, 1], pn[bt, 6, 2]
+    # the cells query and its build are the kernel's (core/kernel/mesh_sdf.py)
+    from tethernet_ros.core.kernel.geometry import mesh_geometry, target_signed_distances
+    from tethernet_ros.core.kernel.mesh_sdf import build_cells
 
-    @njit(cache=True, error_model="numpy")
-    def cell_build(org, c, dims, band, tris):
-        """Per cell: the exact unsigned distance u of its centre; the triangles within
-        u + 2 rho of it (rho the cell's half diagonal: any triangle nearest to a point
-        of the cell is among them) when u - rho <= band, else none and the lower bound
-        u - rho.  Brute force over the triangles, in a fixed order."""
-        ncell = dims[0] * dims[1] * dims[2]
-        rho = 0.5 * c * np.sqrt(3.0)
-        far = np.zeros(ncell)
-        counts = np.zeros(ncell + 1, dtype=np.int64)
-        dist = np.empty(tris.shape[0])
-        lists_t = []
-        lists_d = []
-        for i in range(dims[0]):
-            for j in range(dims[1]):
-                for k in range(dims[2]):
-                    cell = (i * dims[1] + j) * dims[2] + k
-                    px = org[0] + (i + 0.5) * c
-                    py = org[1] + (j + 0.5) * c
-                    pz = org[2] + (k + 0.5) * c
-                    u = 1e300
-                    for t in range(tris.shape[0]):
-                        cx, cy, cz, _ = closest_on_triangle(px, py, pz, tris[t])
-                        dist[t] = np.sqrt((px - cx) ** 2 + (py - cy) ** 2 + (pz - cz) ** 2)
-                        if dist[t] < u:
-                            u = dist[t]
-                    if u - rho > band:
-                        far[cell] = u - rho
-                        continue
-                    order = np.argsort(dist, kind="mergesort")   # stable: ties by index
-                    for t in order:
-                        if dist[t] > u + 2.0 * rho:
-                            break
-                        lists_t.append(t)
-                        lists_d.append(dist[t])
-                        counts[cell + 1] += 1
-        start = np.cumsum(counts)
-        cand = np.empty(len(lists_t), dtype=np.int32)
-        cdist = np.empty(len(lists_t))
-        for m in range(len(lists_t)):
-            cand[m] = lists_t[m]
-            cdist[m] = lists_d[m]
-        return far, start, cand, cdist
+    def cell_build(org, c, dims, band, tris, pn):
+        return build_cells(org, c, dims, band, tris, pn)
 
-    @njit(cache=True, error_model="numpy")
     def run_cell(P, org, c, dims, far, start, cand, cdist, tris, pn, lo, hi, out, nrm):
-        for q in range(P.shape[0]):
-            d, a, b, e = cell_sdf(P[q, 0], P[q, 1], P[q, 2], org, c, dims, far, start, cand,
-                                  cdist, tris, pn, lo, hi)
-            out[q] = d
-            nrm[q, 0] = a
-            nrm[q, 1] = b
-            nrm[q, 2] = e
+        g = mesh_geometry(np.zeros(2), tris, pn, org, c, dims, far, start, cand, cdist, lo, hi)
+        d, n = target_signed_distances(P, g)
+        out[:] = d
+        nrm[:] = n
 
     from tethernet_ros.core.kernel.geometry import local_sdf
 
@@ -600,7 +473,7 @@ def measure_case(name, mesh, parts, kernels, args, rows, coacd_parts=None, thin=
         pad = args.band + c
         org = np.ascontiguousarray(blo - pad)
         dims = np.ceil((bhi + pad - org) / c).astype(np.int64)
-        far, start, cand, cdist = cell_build(org, float(c), dims, float(args.band), tris)
+        far, start, cand, cdist = cell_build(org, float(c), dims, float(args.band), tris, pn)
         t_build = time.process_time() - t0
         lens = np.diff(start)
         near = lens[lens > 0]
