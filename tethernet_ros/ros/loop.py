@@ -69,11 +69,16 @@ def step_time_summary(times: list[tuple[float, float]]) -> str:
             f"median {np.median(a[:, 1]):.2f} ms, 95th percentile {np.percentile(a[:, 1], 95):.2f} ms)")
 
 
+def in_lockstep(asked: bool, config: SimConfig) -> bool:
+    """The one rule of when an episode's closing policy runs through ROS: when it was
+    asked for (``lockstep``, a controller node), or when the configuration's policy is
+    'external' (a controller outside the kernel decides, whatever was asked)."""
+    return bool(asked) or config.policy.kind == EXTERNAL
+
+
 def runs_in_lockstep(setup: Setup) -> bool:
-    """Whether an episode's closing policy runs through ROS: the capture node asked for it
-    (``lockstep``), or the configuration's policy is 'external' (a controller outside the
-    kernel decides, whatever was asked)."""
-    return bool(setup.lockstep) or setup.config.policy.kind == EXTERNAL
+    """Whether an episode (its setup) runs in lockstep (:func:`in_lockstep`)."""
+    return in_lockstep(setup.lockstep, setup.config)
 
 
 def kernel_config(config: SimConfig) -> SimConfig:

@@ -35,6 +35,7 @@ from ..core.episode import EpisodeResult, EpisodeTrace
 from ..core.noise import NoiseModel
 from ..errors import UserError
 from . import conversions as conv
+from .loop import in_lockstep
 from .names import LOCKSTEP_PUBLISHERS, LOCKSTEP_SUBSCRIBERS, NODES, READY_SERVICE, REJECTED, \
     REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, SERVICE, STATUS_NAMES, SUCCEEDED, TOPICS
 
@@ -180,7 +181,7 @@ class RosSuite:
                  domain_id: int | None = None):
         self.config = config or SimConfig()
         self.controller = controller
-        self.lockstep = bool(lockstep or controller) or self.config.policy.kind == "external"
+        self.lockstep = in_lockstep(lockstep or controller, self.config)
         self.noise_model = noise_model
         self.bag_dir = Path(bag_dir)
         self._tmp = None

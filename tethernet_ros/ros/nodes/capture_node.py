@@ -45,7 +45,7 @@ from ...bags import BagError, BagWriter, message_definition, qos_profile
 from ...bags.naming import capture_name, check_name, taken
 from ...core.config import ConfigError, SimConfig
 from .. import conversions as conv
-from ..loop import EXTERNAL
+from ..loop import in_lockstep
 from ..names import ABORTED, ALWAYS_RECORDED, CANCELED, LATCHED, LOCKSTEP_PUBLISHERS, \
     LOCKSTEP_SUBSCRIBERS, READY_SERVICE, REJECTED, REQUIRED_PUBLISHERS, REQUIRED_SUBSCRIBERS, \
     STATUS_NAMES, SUCCEEDED, TOPIC_TYPES, TOPICS, WATCHED, is_loop_failure, recorder_name
@@ -277,7 +277,7 @@ class CaptureNode(Node):
             return conv.Outcome(REJECTED, f"capture node configuration: {exc}")
         lockstep = bool(param(self, "lockstep"))
         missing = self.missing_nodes(float(param(self, "ready_timeout")),
-                                     lockstep=lockstep or config.policy.kind == EXTERNAL)
+                                     lockstep=in_lockstep(lockstep, config))
         if missing:
             return conv.Outcome(REJECTED, f"suite not ready: {missing}")
         seed = None if request.nominal else int(request.seed)
@@ -296,7 +296,7 @@ class CaptureNode(Node):
                                                   config, time.time(), nominal=request.nominal,
                                                   lockstep=lockstep))
             error = self.wait_for_end(ep, feedback, canceled,
-                                      lockstep=lockstep or config.policy.kind == EXTERNAL)
+                                      lockstep=in_lockstep(lockstep, config))
         except Exception as exc:  # noqa: BLE001 - reported in the answer
             error = f"{type(exc).__name__}: {exc}"
         except BaseException:                    # KeyboardInterrupt: leave a marked bag
