@@ -183,9 +183,9 @@ def test_sigterm_stops_the_workers_and_keeps_the_samples(tmp_path):
 
 def test_validate_of_a_tumbling_target_splits_by_attitude(tmp_path):
     """Under a tumble, validate counts successes per bin of the stage's attitude at launch
-    (studies.tumbling); at rest it prints no such table."""
+    (montecarlo.attitude); at rest it prints no such table."""
     from tethernet_ros.core.tumble import TumbleConfig
-    from tethernet_ros.studies.tumbling import attitude_counts
+    from tethernet_ros.montecarlo.attitude import attitude_counts
 
     res = tmp_path / "t.jsonl"
     args = ["validate", "--design", "time-min", "--samples", "4", "--settle-time", "1",

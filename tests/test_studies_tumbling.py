@@ -43,7 +43,7 @@ def test_long_axis_against_the_line_of_sight_follows_the_phase():
     from tethernet_ros.core.design import REFERENCE_DESIGNS
     from tethernet_ros.core.noise import NoiseModel
     from tethernet_ros.core.tumble import TumbleConfig
-    from tethernet_ros.studies.tumbling import attitude_bin, long_axis_los
+    from tethernet_ros.montecarlo.attitude import attitude_bin, long_axis_los
 
     design = REFERENCE_DESIGNS["mass-min"]
     noise = NoiseModel(sigma_spin_axis_deg=0.0)
@@ -56,10 +56,8 @@ def test_long_axis_against_the_line_of_sight_follows_the_phase():
         assert long_axis_los(design, roll, noise, seed) < 1e-12
     # a sample's launch attitude is computed once per (design, tumble, noise, seed): the
     # roll above did not reuse the flat spin's, and asking again reuses it
-    from tethernet_ros.studies.tumbling import _launch_attitude, _target_inertia
-    inertia = _target_inertia(flat.target)
-    assert _launch_attitude(design, flat, noise, 0, inertia) is \
-        _launch_attitude(design, flat, noise, 0, inertia)
+    from tethernet_ros.montecarlo.attitude import _launch_attitude
+    assert _launch_attitude(design, flat, noise, 0) is _launch_attitude(design, flat, noise, 0)
     assert [attitude_bin(a) for a in (0.0, 0.49, 0.5, 0.89, 0.9, 1.0)] == [0, 0, 1, 1, 2, 2]
 
 
@@ -70,7 +68,8 @@ def test_attitude_table_splits_each_cell_by_bin():
     from tethernet_ros.montecarlo.seeds import sample_seed
     from tethernet_ros.studies.cells import tumbling_cells
     from tethernet_ros.studies.summary import CellRecord, Verdict
-    from tethernet_ros.studies.tumbling import attitude_bin, attitude_table, long_axis_los
+    from tethernet_ros.montecarlo.attitude import attitude_bin, long_axis_los
+    from tethernet_ros.studies.tumbling import attitude_table
 
     design = REFERENCE_DESIGNS["baseline"]
     cells = tumbling_cells(SimConfig())
@@ -158,7 +157,7 @@ def test_attitude_at_a_later_time_follows_the_kernel_untouched():
     from tethernet_ros.core.noise import NoiseModel
     from tethernet_ros.core.scenario import scenario_for
     from tethernet_ros.core.tumble import TumbleConfig
-    from tethernet_ros.studies.tumbling import long_axis_los
+    from tethernet_ros.montecarlo.attitude import long_axis_los
 
     design = replace(REFERENCE_DESIGNS["time-min"], d_L=1000.0)
     cfg = SimConfig(tumble=TumbleConfig(rate_deg_s=8.0, axis="flat"))
@@ -182,7 +181,8 @@ def test_closing_attitude_table_counts_the_samples_that_never_closed():
     from tethernet_ros.montecarlo.seeds import sample_seed
     from tethernet_ros.studies.cells import tumbling_cells
     from tethernet_ros.studies.summary import CellRecord, Verdict
-    from tethernet_ros.studies.tumbling import attitude_bin, attitude_table, long_axis_los
+    from tethernet_ros.montecarlo.attitude import attitude_bin, long_axis_los
+    from tethernet_ros.studies.tumbling import attitude_table
 
     design = REFERENCE_DESIGNS["mass-min"]
     cells = tumbling_cells(SimConfig())
@@ -235,3 +235,36 @@ def test_rest_table_pairs_each_tumbling_cell_with_the_rest_cell_of_its_policy():
     assert f"| los | 4 | a | +15.0 / - | 3/0 / - | {p.mcnemar_p:.2g} / - |" in text
     assert "flat" not in text.split("|---|")[-1]
     assert rest_table({}) == ""
+
+
+def test_any_shape_turns_free_of_torque_as_the_kernel_turns_it():
+    """An asymmetric top (Envisat: three distinct moments) spun about a tilted axis: the
+    core's free rotation is the kernel's untouched target, bit for bit, and long_axis_los
+    follows it."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from tethernet_ros.core import kernel as kn
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.episode import CaptureSimulation
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.core.scenario import scenario_for
+    from tethernet_ros.core.target import TargetConfig
+    from tethernet_ros.core.tumble import TumbleConfig, free_rotation
+    from tethernet_ros.montecarlo.attitude import long_axis_los
+
+    design = replace(REFERENCE_DESIGNS["time-min"], d_L=1000.0)
+    cfg = SimConfig(target=TargetConfig(name="envisat"),
+                    tumble=TumbleConfig(rate_deg_s=8.0, axis=(0.3, 1.0, 0.2)))
+    noise = NoiseModel()
+    sim = CaptureSimulation(scenario_for(design, noise.sample(2), cfg))
+    t = sim.s.target_body
+    q0, L0, inertia = t.quat.copy(), t.ang_mom.copy(), np.array(t.inertia)
+    assert len(set(inertia.tolist())) == 3
+    sim.advance(2500)
+    q = free_rotation(q0, L0, inertia, 2500 * sim.dt, dt=sim.dt)
+    assert np.array_equal(q, sim.s.target_body.quat)
+    a = long_axis_los(design, cfg, noise, 2, 2500 * sim.dt)
+    assert a == abs(kn.quat_to_matrix(sim.s.target_body.quat)[2, 0])

@@ -225,10 +225,10 @@ def results_table(results) -> str:
 
 def by_attitude(result, design, config, model, at: str = "launch") -> list[dict]:
     """A tumbling run's successes per bin of |a_z| (the cosine between the stage's long
-    axis and the line of sight, ``studies.tumbling.long_axis_los``) at launch, or at each
+    axis and the line of sight, ``montecarlo.attitude.long_axis_los``) at launch, or at each
     sample's closing time (``at="closing"``, the stage turned free of torque; a last
     entry, a_z None, for the samples whose closing never started)."""
-    from ..studies.tumbling import ATTITUDE_BINS, attitude_counts, closing_attitude_counts
+    from ..montecarlo.attitude import ATTITUDE_BINS, attitude_counts, closing_attitude_counts
 
     if at == "closing":
         ok, n = closing_attitude_counts(design, config, model,
@@ -245,7 +245,7 @@ def by_attitude(result, design, config, model, at: str = "launch") -> list[dict]
 
 def attitude_text(results, design_by_label: dict, config, model) -> str:
     """Markdown: each design's successes per bin of |a_z| at launch, then at closing."""
-    from ..studies.tumbling import attitude_heads
+    from ..montecarlo.attitude import attitude_heads
 
     out = []
     for at, heads, what in (

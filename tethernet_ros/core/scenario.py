@@ -100,6 +100,15 @@ def target_mass_properties(shape, world: World) -> tuple[float, np.ndarray, np.n
     return shape.mass * f, np.array(moments), np.array(world.target_com_offset, dtype=np.float64)
 
 
+def launch_attitude(design: Design, sample: NoiseSample | None, config: SimConfig):
+    """(attitude quaternion, world angular momentum (kg m^2/s), principal moments
+    (kg m^2)) of the target at launch in one sample, as ``build_scenario`` sets them."""
+    world = world_for(design, sample, config.tumble)
+    _, inertia, _ = target_mass_properties(target_shape(config.target), world)
+    q, _w, ang_mom = initial_attitude(world, inertia, config.target.attitude_deg)
+    return q, ang_mom, inertia
+
+
 def initial_attitude(world: World, inertia: np.ndarray, attitude_deg=()):
     """(quaternion, world angular velocity (rad/s), world angular momentum (kg m^2/s)) of
     the target at the start: the orientation noise's rotation of its configured attitude

@@ -140,3 +140,35 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
                      w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
                      w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
                      w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
+
+
+def symmetric_top_axis(axis, ang_mom, inertia, t: float) -> np.ndarray:
+    """The symmetry axis (world unit vector) of a torque-free symmetric top (I_y = I_z)
+    ``t`` s after it was ``axis``: it precesses about the fixed world angular momentum L
+    at |L| / I_t (Landau and Lifshitz, Mechanics, section 33; the kernel keeps to this
+    closed form, tests/test_core_tumble.py).  ``inertia``: principal moments (kg m^2)."""
+    e = np.asarray(axis, dtype=float)
+    big_l = float(np.linalg.norm(ang_mom))
+    if not t or big_l == 0.0:
+        return e
+    lhat = np.asarray(ang_mom, dtype=float) / big_l
+    a = big_l / float(inertia[1]) * float(t)
+    return (e * math.cos(a) + np.cross(lhat, e) * math.sin(a)
+            + lhat * float(np.dot(lhat, e)) * (1.0 - math.cos(a)))
+
+
+def free_rotation(quat, ang_mom, inertia, t: float, dt: float = 1e-3) -> np.ndarray:
+    """The attitude (w, x, y, z) of a torque-free rigid body of any shape ``t`` s after
+    ``quat``, under world angular momentum ``ang_mom`` (kg m^2/s) and principal moments
+    ``inertia`` (kg m^2): the kernel's own drift (kernel/rigid.py) in steps of ``dt`` s
+    (the last one shorter), the attitude an untouched target would have."""
+    from .kernel.rigid import free_attitude
+
+    n = int(math.floor(t / dt + 1e-9))          # whole steps (t a multiple of dt: exactly)
+    q = free_attitude(np.asarray(quat, dtype=np.float64), np.asarray(ang_mom, dtype=np.float64),
+                      np.asarray(inertia, dtype=np.float64), float(dt), n)
+    rest = float(t) - n * dt
+    if rest > 1e-9 * dt:
+        q = free_attitude(q, np.asarray(ang_mom, dtype=np.float64),
+                          np.asarray(inertia, dtype=np.float64), rest, 1)
+    return q

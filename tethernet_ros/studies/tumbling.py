@@ -11,10 +11,11 @@ out of the tables and the figure.
 """
 from __future__ import annotations
 
-import bisect
 import math
 from pathlib import Path
 
+from ..montecarlo.attitude import (ATTITUDE_BINS, attitude_counts, attitude_heads,
+                                   closing_attitude_counts)
 from .cells import TUMBLE_AXES, TUMBLE_RATES
 from .paired import PairedStats
 from .report import error_bars
@@ -145,130 +146,6 @@ def plot_tumbling(designs: list[str], stats: dict, path: Path, title: str) -> No
     fig.tight_layout(rect=(0, 0, 1 - 2.4 / (4.6 * len(panels) + 2.6), 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-#: bins of |a_z|, the cosine between the stage's long axis and the line of sight at launch:
-#: lying across it (angle > 60 deg), oblique, and end-on (within 26 deg of it)
-ATTITUDE_BINS = (0.0, 0.5, 0.9, 1.0)
-
-
-def long_axis_los(design, config, noise, seed: int, t: float = 0.0) -> float:
-    """|a_z| of the sample drawing ``seed`` at ``t`` s of simulated time: the cosine
-    between the stage's long axis and the line of sight (z).  At launch (t = 0) from the
-    orientation noise and the tumble's phase and axis as the episode sets them
-    (``core.scenario.world_for``, ``initial_attitude``); later, as the stage turns free
-    of torque: a symmetric top's long axis precesses about its fixed angular momentum L
-    at |L| / I_t (Landau and Lifshitz, Mechanics, section 33; the kernel keeps to this
-    closed form, tests/test_core_tumble.py).  The net's touch is not counted, so at a
-    closing time it is the attitude the stage would have had untouched."""
-    import numpy as np
-
-    inertia = _target_inertia(config.target)
-    e, ang_mom = _launch_attitude(design, config, noise, seed, inertia)
-    big_l = float(np.linalg.norm(ang_mom))
-    if t and big_l > 0.0:
-        lhat = ang_mom / big_l
-        a = big_l / inertia[1] * float(t)
-        e = (e * math.cos(a) + np.cross(lhat, e) * math.sin(a)
-             + lhat * float(np.dot(lhat, e)) * (1.0 - math.cos(a)))
-    return abs(float(e[2]))
-
-
-def _launch_attitude(design, config, noise, seed: int, inertia):
-    """(long axis at launch as a unit 3-vector, angular momentum (kg m^2/s)) of the sample
-    drawing ``seed``, computed once per process: the attitude tables at launch and at
-    closing, and both policies of a cell, ask for the same samples."""
-    key = (repr(design), repr(config.tumble), repr(config.target), repr(noise), int(seed))
-    got = _ATTITUDES.get(key)
-    if got is None:
-        from ..core.kernel import quat_to_matrix
-        from ..core.scenario import initial_attitude, world_for
-
-        world = world_for(design, _noise_sample(noise, seed), config.tumble)
-        q, _w, ang_mom = initial_attitude(world, inertia)
-        if len(_ATTITUDES) >= 50_000:
-            _ATTITUDES.clear()
-        got = _ATTITUDES[key] = (quat_to_matrix(q)[:, 0].copy(), ang_mom.copy())
-    return got
-
-
-_ATTITUDES: dict = {}
-
-
-def _noise_sample(noise, seed: int):
-    """``noise.sample(seed)``, drawn once per process: every cell and design of a study
-    draws the same seeds (a draw takes about 6 ms, its normals being exact inverse-CDF
-    values, core.detmath).  Keyed by the noise model's repr (it holds a dict)."""
-    key = (repr(noise), int(seed))
-    got = _SAMPLES.get(key)
-    if got is None:
-        if len(_SAMPLES) >= 20_000:
-            _SAMPLES.clear()
-        got = _SAMPLES[key] = noise.sample(seed)
-    return got
-
-
-_SAMPLES: dict = {}
-
-
-def _target_inertia(target_config):
-    """The target's principal moments (kg m^2; core.shapes.target_shape), checked to be a
-    symmetric top (I_y = I_z), which :func:`long_axis_los`'s closed form needs."""
-    key = repr(target_config)
-    if key not in _INERTIA:
-        from ..core.shapes import target_shape
-
-        inertia = target_shape(target_config).inertia
-        if inertia[1] != inertia[2]:
-            raise ValueError(f"target inertia {inertia.tolist()}: not a symmetric top "
-                             "(I_y != I_z); the free-rotation closed form does not apply")
-        _INERTIA[key] = inertia
-    return _INERTIA[key]
-
-
-_INERTIA: dict = {}
-
-
-def attitude_bin(a_z: float) -> int:
-    """Index of the ATTITUDE_BINS bin that holds a_z (the last one includes 1)."""
-    return min(bisect.bisect_right(ATTITUDE_BINS, a_z) - 1, len(ATTITUDE_BINS) - 2)
-
-
-def attitude_counts(design, config, noise, outcomes, bin_of=None) -> tuple[list[int], list[int]]:
-    """(successes, samples) per ATTITUDE_BINS bin of |a_z| at launch, over ``outcomes``:
-    (noise seed, success) pairs of episodes of ``design`` under ``config`` and ``noise``.
-    ``bin_of``: a dict seed -> bin shared by calls over the same episodes' attitudes (the
-    policies of one cell), filled as seeds are met."""
-    bin_of = {} if bin_of is None else bin_of
-    n = [0] * (len(ATTITUDE_BINS) - 1)
-    ok = [0] * (len(ATTITUDE_BINS) - 1)
-    for seed, success in outcomes:
-        if seed not in bin_of:
-            bin_of[seed] = attitude_bin(long_axis_los(design, config, noise, seed))
-        n[bin_of[seed]] += 1
-        ok[bin_of[seed]] += int(bool(success))
-    return ok, n
-
-
-def closing_attitude_counts(design, config, noise, outcomes) -> tuple[list[int], list[int]]:
-    """(successes, samples) per ATTITUDE_BINS bin of |a_z| at the closing time, untouched
-    by the net (:func:`long_axis_los`), then one more entry for the samples whose closing
-    never started; ``outcomes``: (noise seed, success, closing time (s) or NaN)."""
-    k = len(ATTITUDE_BINS) - 1
-    n, ok = [0] * (k + 1), [0] * (k + 1)
-    for seed, success, t in outcomes:
-        b = k if not math.isfinite(t) else attitude_bin(long_axis_los(design, config, noise,
-                                                                      seed, t))
-        n[b] += 1
-        ok[b] += int(bool(success))
-    return ok, n
-
-
-def attitude_heads() -> list[str]:
-    """Column heads of the ATTITUDE_BINS bins."""
-    e = ATTITUDE_BINS
-    return [f"{e[k]:g} <= a_z < {e[k + 1]:g}" if k < len(e) - 2 else f"a_z >= {e[k]:g}"
-            for k in range(len(e) - 1)]
 
 
 #: what each attitude table splits by, and its caption

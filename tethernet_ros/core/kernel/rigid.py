@@ -78,6 +78,16 @@ def integrate_target(model, data, scr, l, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt
     for c in range(3):
         tg.pos[c, l] += dt * vel[c, l]
     q = tg.quat
+    torque_free_drift(q, Lw, R, L, inertia, dt, l)
+    angular_velocity_lane(R, inertia, Lw, L, tg.omega, l)
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def torque_free_drift(q, Lw, R, L, inertia, dt, l):
+    """Lane l's attitude q[:, l] after dt (s) of torque-free rotation under its world
+    angular momentum Lw[:, l] (kg m^2/s) and principal moments inertia[:, l] (the module's
+    splitting); R[:, :, l] holds the rotation matrix at the start, and the new one on
+    return; L scratch."""
     if Lw[0, l] != 0.0 or Lw[1, l] != 0.0 or Lw[2, l] != 0.0:
         for c in range(3):
             L[c, l] = R[0, c, l] * Lw[0, l] + R[1, c, l] * Lw[1, l] + R[2, c, l] * Lw[2, l]
@@ -93,7 +103,27 @@ def integrate_target(model, data, scr, l, fx_t, fy_t, fz_t, tx_t, ty_t, tz_t, dt
         q[2, l] = q[2, l] / qn
         q[3, l] = q[3, l] / qn
     quat_to_matrix_lane(q, R, l)
-    angular_velocity_lane(R, inertia, Lw, L, tg.omega, l)
+
+
+@njit(cache=True, error_model='numpy')
+def free_attitude(quat, ang_mom, inertia, dt, n_steps):
+    """The attitude (w, x, y, z) of a free rigid body after ``n_steps`` steps of dt (s)
+    from ``quat``, by the kernel's own torque-free drift: world angular momentum
+    ``ang_mom`` (3,) (kg m^2/s), principal moments ``inertia`` (3,) (kg m^2)."""
+    q = np.empty((4, 1))
+    Lw = np.empty((3, 1))
+    inert = np.empty((3, 1))
+    for c in range(4):
+        q[c, 0] = quat[c]
+    for c in range(3):
+        Lw[c, 0] = ang_mom[c]
+        inert[c, 0] = inertia[c]
+    R = np.empty((3, 3, 1))
+    L = np.empty((3, 1))
+    quat_to_matrix_lane(q, R, 0)
+    for _ in range(n_steps):
+        torque_free_drift(q, Lw, R, L, inert, dt, 0)
+    return q[:, 0].copy()
 
 
 @njit(cache=True, inline='always', error_model='numpy')
