@@ -158,8 +158,9 @@ class NoiseModel:
 
         The draw order is fixed (distance, orientation, then per corner speed, polar,
         azimuth, then closing, then the tumble's rate, axis tilt and its direction, phase
-        and transverse angle, then the target's mass, its three moments and its centre of
-        mass along x, y, z), and every quantity is drawn whatever its scale, so sample i
+        and transverse angle, then, for a target whose mass properties are uncertain, its
+        mass, its three moments and its centre of mass along x, y, z), and every quantity
+        is drawn whatever its scale, so sample i
         gets the same underlying random numbers under every design and scale (common random
         numbers); the tumble's draws, then the target's, come after the others, so every
         earlier draw is what it was before they existed.
@@ -183,9 +184,13 @@ class NoiseModel:
         u_spin_dir = rng.random()
         u_spin_phase = rng.random()
         u_transverse = rng.random()
-        z_mass = normal(rng)
-        z_inertia = [normal(rng) for _ in range(3)]
-        z_com = [normal(rng) for _ in range(3)]
+        # the target's draws, last, only when it is uncertain (a known target's offsets are
+        # 0 whatever they would draw; every earlier draw is the same either way)
+        known = (self.sigma_target_mass == 0.0 and self.sigma_target_inertia == 0.0
+                 and self.sigma_target_com == 0.0)
+        z_mass = 0.0 if known else normal(rng)
+        z_inertia = [0.0] * 3 if known else [normal(rng) for _ in range(3)]
+        z_com = [0.0] * 3 if known else [normal(rng) for _ in range(3)]
         st = self.scales["target"]
         s = self.scales
         deg = math.pi / 180.0
