@@ -372,3 +372,33 @@ def test_run_capture_service_round_trip(ros_pair):
     bad_design.corner_mass = -1.0
     bad = call(RunCapture.Request(design=bad_design, seed=1))
     assert bad.status == RunCapture.Response.REJECTED and "corner_mass" in bad.error
+
+
+def test_markers_draw_the_target_as_it_is():
+    """The Zenit-2 as a cylinder primitive, as before; a mesh target as a TRIANGLE_LIST of
+    its body-frame triangles posed by the target's attitude."""
+    from visualization_msgs.msg import Marker
+
+    from tethernet_ros.core.config import SimConfig
+    from tethernet_ros.core.design import REFERENCE_DESIGNS
+    from tethernet_ros.core.episode import CaptureSimulation
+    from tethernet_ros.core.scenario import scenario_for
+    from tethernet_ros.core.target import TargetConfig
+    from tethernet_ros.ros.markers import MarkerBuilder
+    from tethernet_ros.ros.state import state_arrays
+
+    def target_marker(cfg):
+        sim = CaptureSimulation(scenario_for(REFERENCE_DESIGNS["time-min"], None, cfg))
+        out = MarkerBuilder(sim.s).build(state_arrays(sim))
+        return sim, next(m for m in out.markers if m.ns == "target")
+
+    _, m = target_marker(SimConfig())
+    assert m.type == Marker.CYLINDER and (m.scale.x, m.scale.z) == (3.9, 10.4)
+    sim, m = target_marker(SimConfig(target=TargetConfig(name="envisat",
+                                                         attitude_deg=(0.0, 0.0, 30.0))))
+    assert m.type == Marker.TRIANGLE_LIST and len(m.points) == 3 * len(sim.s.target.faces)
+    q = sim.s.target_body.quat
+    assert [m.pose.orientation.w, m.pose.orientation.x, m.pose.orientation.y,
+            m.pose.orientation.z] == [float(c) for c in q]
+    first = sim.s.target.vertices[sim.s.target.faces[0, 0]]
+    assert [m.points[0].x, m.points[0].y, m.points[0].z] == [float(c) for c in first]

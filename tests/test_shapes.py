@@ -404,3 +404,12 @@ def test_the_optimiser_searches_each_target_within_its_own_bounds(tmp_path):
     box = _mesh_config(tmp_path, trimesh.creation.box((5.2, 1.95, 1.95)))
     small = dict(zip(VARIABLE_NAMES, bounds(box)))
     assert small["L_n"] == pytest.approx((6.5, 11.0)) and small["d_c"] == pytest.approx((-1.25, 1.25))
+
+
+def test_degenerate_and_duplicate_faces_are_removed_and_reported(tmp_path):
+    box = trimesh.creation.box((1.0, 2.0, 3.0))
+    faces = np.vstack([box.faces, box.faces[:2], [[0, 0, 1]]])     # two copies, one sliver
+    with pytest.warns(UserWarning, match="removed 3 degenerate or duplicate faces"):
+        shape = target_shape(_mesh_config(tmp_path, trimesh.Trimesh(box.vertices, faces,
+                                                                      process=False)))
+    assert shape.volume == pytest.approx(6.0) and len(shape.faces) == 12
