@@ -21,9 +21,9 @@ def pytest_configure(config):
 #: core modules that scripts/test.sh runs beside the ROS tests (the longest of them, so
 #: that the two halves take about the same time on 2 cores: measured 2026-12-02, the ROS
 #: tests 254 s and the rest 710 s; 2026-12-06, the second half 505 s and the first 639 s,
-#: when the last two joined it, about 35 s between them)
+#: when the last three joined it, about 75 s between them)
 BESIDE_ROS = ("test_core_statistics.py", "test_reproducibility.py", "test_montecarlo_golden.py",
-              "test_studies_summary.py")
+              "test_studies_summary.py", "test_montecarlo_cli.py")
 
 
 def pytest_collection_modifyitems(config, items):

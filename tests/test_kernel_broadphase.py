@@ -53,7 +53,9 @@ def _same_arrays(a, b) -> bool:
 
 
 CASES = ([("implicit", IMPLICIT, name, seed) for name in REFERENCE_DESIGNS for seed in (None, 3)]
-         + [("explicit", EXPLICIT, name, None) for name in ("baseline", "time-min")]
+         # the explicit path's one case (its broad phase is the same code for every design;
+         # the baseline's explicit case took 34 s of make test's budget)
+         + [("explicit", EXPLICIT, "time-min", None)]
          + [("tumbling", TUMBLING, "time-min", 5), ("tumbling", TUMBLING, "mass-min", None)]
          + [("nozzle", NOZZLE, "time-min", None), ("nozzle", NOZZLE, "baseline", 3)])
 
