@@ -168,7 +168,7 @@ def test_repairable_meshes_are_repaired_and_reported(tmp_path, make, repaired):
     with pytest.warns(UserWarning, match=repaired):
         shape = target_shape(_mesh_config(tmp_path, make()))
     assert shape.volume == pytest.approx(6.0)
-    assert any(repaired.split()[-1] in r for r in shape.describe()["repairs"])
+    assert any(repaired.split()[-1] in r for r in shape.repairs)
 
 
 @pytest.mark.parametrize("make, units, defect", [

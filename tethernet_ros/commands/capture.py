@@ -65,7 +65,9 @@ def run(args) -> int:
     if args.json:
         d = result.to_dict()
         d.update(design=design.to_dict(), design_name=label, via=args.via, bag_path=bag_path,
-                 fidelity=args.fidelity, target=target_shape(config.target).describe())
+                 fidelity=args.fidelity,
+                 target={**config.target.identity(),
+                         "repairs": list(target_shape(config.target).repairs)})
         print_json(d)
         return 0
     png = Path(args.png) if args.png else Path("out") / f"capture_{label}_{seed_label}.png"

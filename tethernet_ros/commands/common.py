@@ -149,13 +149,19 @@ def fidelity_config(args, config):
                        field="--fidelity")
 
 
-def three_numbers(flag: str, text: str) -> list[float]:
-    """Three numbers 'a,b,c' of a flag; UserError naming it otherwise."""
+def _three(text: str) -> list[float] | None:
+    """The three numbers of 'a,b,c', or None."""
     try:
         v = [float(c) for c in text.split(",")]
     except ValueError:
-        v = []
-    if len(v) != 3:
+        return None
+    return v if len(v) == 3 else None
+
+
+def three_numbers(flag: str, text: str) -> list[float]:
+    """Three numbers 'a,b,c' of a flag; UserError naming it otherwise."""
+    v = _three(text)
+    if v is None:
         raise UserError(f"{flag} {text!r}: must be three numbers a,b,c")
     return v
 
@@ -164,12 +170,8 @@ def tumble_axis(text: str):
     """A --tumble-axis value: a name of TUMBLE_AXES, or three numbers 'x,y,z'."""
     if text in TUMBLE_AXES:
         return text
-    parts = text.split(",")
-    try:
-        values = [float(v) for v in parts]
-    except ValueError:
-        values = []
-    if len(values) != 3:
+    values = _three(text)
+    if values is None:
         raise UserError(f"--tumble-axis {text!r}: must be one of {', '.join(TUMBLE_AXES)} or "
                         "three numbers X,Y,Z (a body-frame vector)")
     return values
@@ -244,8 +246,8 @@ def _design_tumble(args) -> tuple[dict | None, str]:
 
 
 def config_from_args(args, **overrides):
-    """SimConfig from --config (if given), the --design file's ``tumble:`` and ``target:`` over it, the
-    scenario flags (--tumble-*, --policy, --net-point, --sensing-rate, --latency) over
+    """SimConfig from --config (if given), the --design file's ``tumble:`` and ``target:``
+    over it, the scenario flags (--tumble-*, --policy, --net-point, --sensing-rate, --latency) over
     that, and ``overrides`` applied on top.  A bad value is refused naming its flag (or
     file) and its range."""
     from ..core.config import ConfigError, SimConfig

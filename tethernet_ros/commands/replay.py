@@ -104,12 +104,9 @@ def replay(path) -> dict:
             closing = next((m for m in closings if stamp_key(m.header) == key), closings[0])
             actions, world = conv.commands_from_msgs(launch, closing)
             mirror = StateMirror(setup.design, actions, world, setup.config)
-            target = setup.config.target
             report.update(episode_id=setup.episode_id, design=setup.design.to_dict(),
                           seed=setup.seed, config_overrides=setups[0].sim_config_json,
-                          target={"name": target.name, "kind": target.kind,
-                                  "mesh": target.mesh, "mesh_sha256": target.mesh_sha256,
-                                  "units": target.units})
+                          target=setup.config.target.identity())
         except Exception as exc:  # noqa: BLE001 - a bag's content is reported, not raised
             problems.append(f"cannot rebuild the scenario: {exc}")
     if mirror is not None:

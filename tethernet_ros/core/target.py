@@ -152,6 +152,12 @@ class TargetConfig:
 
         return catalogue.mesh_path(catalogue.entry(self.name))
 
+    def identity(self) -> dict:
+        """Which target this is, as results records, capture outputs and replay report it:
+        name, kind, mesh file, its SHA-256 and units."""
+        return {"name": self.name, "kind": self.kind, "mesh": self.mesh,
+                "mesh_sha256": self.mesh_sha256, "units": self.units}
+
     def to_dict(self) -> dict:
         """The settings as plain values; the revolution kind's new fields at their defaults
         are left out, so that a default target keeps the run keys it had before shapes."""

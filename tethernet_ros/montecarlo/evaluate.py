@@ -109,10 +109,8 @@ def _extra(spec: RunSpec) -> dict:
     """What a results-file record adds to say which run it belongs to (and, for a target
     other than the default Zenit-2, which: its name, file, SHA-256 and units)."""
     extra = {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales}
-    t = spec.config.target
-    if t.kind != "revolution":
-        extra["target"] = {"name": t.name, "mesh": t.mesh, "mesh_sha256": t.mesh_sha256,
-                           "units": t.units}
+    if spec.config.target.kind != "revolution":
+        extra["target"] = spec.config.target.identity()
     return extra
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
-from .geometry import target_sdf
+from .geometry import lane_sdf
 from .data import CONTACT_ON, CONTACT_ONCE_OUTSIDE
 from .model import CONTACT_FREQUENCY
 
@@ -44,7 +44,6 @@ def contact_forces(model, data, scr, l):
     k_c_unit = om_c * om_c                      # contact stiffness per kg
     c_c_unit = 2.0 * prm.zeta_contact * om_c    # contact damping per kg
     bound = tg.bound[l]
-    cx, cy, cz = tg.com_offset[0, l], tg.com_offset[1, l], tg.com_offset[2, l]
     bp = data.broad
     mode = model.broadphase
     n_contacts = 0
@@ -76,7 +75,7 @@ def contact_forces(model, data, scr, l):
             if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
                 b_.contact_mask[i, l] = CONTACT_ON
             continue
-        sd, nbx, nby, nbz = target_sdf(bx + cx, by + cy, bz + cz, model.target.geometry)
+        sd, nbx, nby, nbz = lane_sdf(bx, by, bz, tg, l, model.target.geometry)
         bp.tests[l] += 1
         delta = radius[i] - sd
         if proven:                                 # mode check: was it apart after all?

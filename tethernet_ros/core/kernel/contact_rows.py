@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from .broadphase import BROAD_OFF, BROAD_ON, proven_clear, remember
-from .geometry import target_sdf
+from .geometry import lane_sdf
 from .data import CONTACT_ON, CONTACT_ONCE_OUTSIDE
 from .model import CONTACT_FREQUENCY
 
@@ -74,8 +74,7 @@ def prepare_contact_rows(model, data, scr, l):
             if b_.contact_mask[i, l] == CONTACT_ONCE_OUTSIDE:
                 b_.contact_mask[i, l] = CONTACT_ON
             continue
-        sd, nbx, nby, nbz = target_sdf(bx + tg.com_offset[0, l], by + tg.com_offset[1, l],
-                                       bz + tg.com_offset[2, l], model.target.geometry)
+        sd, nbx, nby, nbz = lane_sdf(bx, by, bz, tg, l, model.target.geometry)
         bp.tests[l] += 1
         C = sd - radius[i]                         # gap (m), negative: penetration
         if proven:                                 # mode check: would it have been clear?

@@ -149,6 +149,15 @@ def target_sdf(lx, ly, lz, g):
     return local_sdf(lx, ly, lz, g.cyl, g.verts, g.offsets)
 
 
+@njit(cache=True, inline='always', error_model='numpy')
+def lane_sdf(bx, by, bz, tg, l, g):
+    """:func:`target_sdf` of lane l's body-frame point b (m, about its centre of mass),
+    read in the shape's frame: at b + the lane's centre-of-mass offset
+    (``data.TargetData.com_offset``)."""
+    return target_sdf(bx + tg.com_offset[0, l], by + tg.com_offset[1, l],
+                      bz + tg.com_offset[2, l], g)
+
+
 @njit(cache=True)
 def target_signed_distance(p_local, g):
     """Signed distance (m) of a body-frame point to the target's shape g and the outward

@@ -7,7 +7,8 @@ the axes its principal axes, ordered so that body x is the axis of least inertia
 body ends up); body z is the remaining one (the line of sight at the nominal attitude).
 Units: m, kg, kg m^2.
 
-Kinds, each one module (a new kind is one more module and one more entry in ``KINDS``):
+Kinds, each one module (a new kind is one more module, one more entry in ``_kinds()`` and
+the settings that select it, ``TargetConfig.kind``):
 
 - ``revolution`` (:mod:`.revolution`): the Zenit-2 stage of the source, exact solids of
   revolution (the default; every result before shapes existed is this kind's);

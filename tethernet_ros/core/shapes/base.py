@@ -7,12 +7,13 @@ import numpy as np
 class Shape:
     """What every target kind provides (subclasses fill the attributes in ``__init__``).
 
-    Attributes: ``name`` (str); ``kind`` (a key of ``KINDS``); ``mass`` (kg);
+    Attributes: ``name`` (str); ``kind`` (a key of ``shapes._kinds()``); ``mass`` (kg);
     ``inertia`` (3,) principal moments about the CoM in body axes (kg m^2); ``volume``
     (m^3); ``area`` (m^2); ``min_surface_distance`` L_c (m, from the CoM to the nearest
     surface point); ``bounding_radius`` (m, a sphere about the CoM enclosing the body);
     ``extent`` (half length along body x, radius about body x) of a cylinder about the CoM
-    enclosing the body (m; the adaptive closing policy's prediction, docs/model.md §14).
+    enclosing the body (m; the adaptive closing policy's prediction, docs/model.md §14);
+    ``repairs``: what was repaired of its file (one line each; none for a built-in shape).
     """
 
     name: str
@@ -24,6 +25,7 @@ class Shape:
     min_surface_distance: float
     bounding_radius: float
     extent: tuple[float, float]
+    repairs: tuple | list = ()
 
     def geometry(self):
         """The kernel's table of this shape (``kernel.geometry.TargetGeometry``)."""
@@ -48,8 +50,3 @@ class Shape:
         """A trimesh of the shape in the body frame (figures, markers, checks; never on an
         episode's path)."""
         raise NotImplementedError
-
-    def describe(self) -> dict:
-        """What results files and bags record of the shape: name, kind, and for a file its
-        path, SHA-256 and units."""
-        return {"name": self.name, "kind": self.kind}

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["MassIntegrals", "mesh_mass_properties", "principal_axes", "check_inertia", "rigid_body"]
+__all__ = ["MassIntegrals", "mesh_mass_properties", "signed_volume", "principal_axes",
+           "check_inertia", "rigid_body"]
 
 #: Jacobi: stop at off-diagonal norm <= _REL_TOL x Frobenius norm or after _MAX_SWEEPS sweeps of _PAIRS
 _REL_TOL, _MAX_SWEEPS, _PAIRS = 1e-15, 50, ((0, 1), (0, 2), (1, 2))
@@ -37,6 +38,26 @@ def _frozen(values) -> np.ndarray:
     return out
 
 
+def _shifted(vs: np.ndarray) -> list:
+    """The vertices (V, 3) as Python floats, shifted by vertices[0] (less cancellation)."""
+    x0, y0, z0 = vs[0].tolist()
+    return [(x - x0, y - y0, z - z0) for x, y, z in vs.tolist()]
+
+
+def _det(a, b, c) -> float:
+    """a . (b x c): six times the signed volume of the tetrahedron (0, a, b, c)."""
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = a, b, c
+    return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+
+
+def signed_volume(vertices, faces) -> float:
+    """The volume (m^3) the faces (F, 3) of vertices (V, 3) enclose, negative when they
+    face inward: the fsum of the tetrahedra (vertices[0], a, b, c), as in
+    :func:`mesh_mass_properties`."""
+    pts = _shifted(np.asarray(vertices, dtype=np.float64))
+    return math.fsum(_det(pts[i], pts[j], pts[k]) for i, j, k in np.asarray(faces).tolist()) / 6.0
+
+
 def mesh_mass_properties(vertices, faces) -> MassIntegrals:
     """Volume, area, centroid and unit-density inertia of a closed triangle mesh.
 
@@ -60,12 +81,12 @@ def mesh_mass_properties(vertices, faces) -> MassIntegrals:
     if fs.min() < 0 or fs.max() >= len(vs):
         raise ValueError(f"mesh faces index vertices outside 0..{len(vs) - 1}")
     x0, y0, z0 = vs[0].tolist()
-    pts = [(x - x0, y - y0, z - z0) for x, y, z in vs.tolist()]
+    pts = _shifted(vs)
     # per face: 6 x the signed tetra volume, its first moments x 24, second moments x 120, area
     rows = []
     for i, j, k in fs.tolist():
         (ax, ay, az), (bx, by, bz), (cx, cy, cz) = pts[i], pts[j], pts[k]
-        d = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+        d = _det(pts[i], pts[j], pts[k])
         sx, sy, sz = ax + bx + cx, ay + by + cy, az + bz + cz
         ux, uy, uz, wx, wy, wz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
         nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx

@@ -32,7 +32,7 @@ from .. import detmath
 from ..kernel.geometry import mesh_geometry
 from ..kernel.mesh_sdf import build_cells
 from .base import Shape
-from .mass_properties import check_inertia, mesh_mass_properties, principal_axes
+from .mass_properties import check_inertia, mesh_mass_properties, principal_axes, signed_volume
 
 #: side (m) of the query grid's cubic cells, and the band (m) about the surface within
 #: which cells list their triangles (docs/studies/mesh-contact.md: 0.25 m, 1 m)
@@ -47,7 +47,7 @@ FORMATS = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
 MIN_SIZE, MAX_SIZE = 0.05, 200.0
 #: the most faces accepted: the cell lists are built by brute force (O(cells x faces))
 MAX_FACES = 20000
-#: the cache of built query tables (a folder; TETHERNET_CACHE overrides)
+#: the version of the query tables' layout, part of their cache key (``query_tables``)
 CACHE_VERSION = 2
 
 
@@ -142,17 +142,6 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
         raise MeshError(f"{name}: separate bodies that overlap; a target must be one body "
                         "or bodies apart (union them first)")
     return vertices, faces, repairs
-
-
-def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """The volume (m^3) the faces enclose, negative for inward normals (fsum of the
-    tetrahedra (v0, a, b, c))."""
-    v = (vertices - vertices[0]).tolist()
-    terms = []
-    for a, b, c in faces.tolist():
-        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = v[a], v[b], v[c]
-        terms.append(ax * (by * cz - bz * cy) - ay * (bx * cz - bz * cx) + az * (bx * cy - by * cx))
-    return math.fsum(terms) / 6.0
 
 
 def _boundary_edges(mesh) -> int:
@@ -371,11 +360,6 @@ class MeshShape(Shape):
         import trimesh
 
         return trimesh.Trimesh(self.vertices.copy(), self.faces.copy(), process=False)
-
-    def describe(self) -> dict:
-        return {"name": self.name, "kind": self.kind,
-                "mesh": "" if self.path is None else str(self.path), "sha256": self.sha256,
-                "units": self.units, "faces": int(len(self.faces)), "repairs": self.repairs}
 
 
 def _tensor(values) -> np.ndarray:
