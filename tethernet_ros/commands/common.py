@@ -8,6 +8,7 @@ from pathlib import Path
 from optimizer.jsonio import json_clean
 
 from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
+from ..core.launch import LAUNCH_POLICIES
 from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
 from ..core.policies import POLICIES
 from ..core.sensing import NET_POINTS
@@ -19,6 +20,8 @@ TUMBLE_AXES = (*AXES, TRANSVERSE)
 #: the closing policies a command line may choose ('external' needs a controller node:
 #: --via ros --controller)
 CLI_POLICIES = tuple(k for k in POLICIES if k != "external")
+#: the launch policies a flag can name ('external' needs a controller: --via ros)
+CLI_LAUNCH_POLICIES = tuple(k for k in LAUNCH_POLICIES if k != "external")
 #: --target-*-sigma flags: their NoiseModel spreads and help
 TARGET_SPREAD_FIELDS = {"--target-mass-sigma": "sigma_target_mass",
                         "--target-inertia-sigma": "sigma_target_inertia",
@@ -35,6 +38,8 @@ SCENARIO_FLAGS = {
     "--latency": ("sensing", "latency"), "--target": ("target", None),
     "--target-mass": ("target", "mass"), "--target-units": ("target", "units"),
     "--target-attitude": ("target", "attitude_deg"),
+    "--launch-policy": ("launch", "kind"), "--launch-max-wait": ("launch", "max_wait"),
+    "--launch-max-tilt": ("launch", "max_tilt_deg"),
 }
 
 
@@ -118,6 +123,16 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="initial turn of the target about the spin axis (deg)")
     g.add_argument("--policy", choices=CLI_POLICIES, default=None,
                    help="closing policy: threshold (the source's rule, default) or adaptive")
+    g.add_argument("--launch-policy", choices=CLI_LAUNCH_POLICIES, default=None,
+                   help="launch policy (docs/model.md §16): immediate (fire at once, the "
+                        "default) or predictive (wait until the tumbling target is predicted "
+                        "to lie across the line of sight while the net wraps it)")
+    g.add_argument("--launch-max-wait", type=float, default=None, metavar="S",
+                   help="the chaser fires by then whatever the policy says, in [0, 3600] s "
+                        "(default 360)")
+    g.add_argument("--launch-max-tilt", type=float, default=None, metavar="DEG",
+                   help="the predictive policy's largest tilt of the long axis out of the "
+                        "plane across the line of sight, in [0.1, 90] deg (default 30)")
     g.add_argument("--net-point", choices=NET_POINTS, default=None,
                    help="the net's sensed reference point (default com)")
     g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",

@@ -9,6 +9,8 @@ random numbers, with its table and figure written under docs/studies/.
                planned target distance (docs/model.md §14)
   tumbling     the target spinning at 0.5-8 deg/s about each axis, threshold and adaptive
                policies side by side (designs may be YAML files, e.g. the Case optima)
+  launch       the flat spins and a precessing one with noisy sensing, the immediate
+               against the predictive launch under each closing policy (docs/model.md §16)
   compare      two results files (e.g. of `tethernet validate` at two commits or with two
                configurations), matched by design and seed: --a FILE --b FILE
 
@@ -240,6 +242,9 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
                      attitude_table(designs, cells, records, design_of, at="closing")):
             if part:
                 table += "\n" + part
+    elif args.study == "launch":
+        from ..studies.launch import launch_table
+        table = launch_table(designs, cells, records)
     elif len(cells) == 2:
         table = comparison_table(designs, paired, cells[1].label)
     else:
@@ -275,6 +280,10 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
              "p_diff": p.p_diff, "spun_only": p.b_only, "rest_only": p.a_only,
              "mcnemar_p": p.mcnemar_p, "t_diff": p.t_diff}
             for (axis, rate, pol, d), p in vs_rest.items()]
+    if args.study == "launch":
+        from ..studies.launch import launch_pairs, launch_summary
+        summary["predictive_vs_immediate"] = launch_summary(launch_pairs(designs, cells,
+                                                                         records))
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     if args.study == "tumbling":
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)

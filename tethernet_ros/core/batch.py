@@ -91,6 +91,9 @@ class BatchRunner:
             m1, d1 = sc.kernel()
             if not _same_model(m1, model):
                 raise ValueError("a sample changed the model of its batch (design or config)")
+            if d1.events[kn.E_LAUNCHED, 0] == 0:
+                raise ValueError("the launch policy 'external' needs a controller outside the "
+                                 "kernel; a batch runs in-kernel policies only")
             kn.copy_lane(data, slot, d1, 0)
             sc.attach(model, data, slot)
             sim = CaptureSimulation(sc)

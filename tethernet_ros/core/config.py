@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace, asdict
 
+from .launch import LaunchConfig
 from .policies import PolicyConfig
 from .sensing import SensingConfig
 from .target import TargetConfig
@@ -20,7 +21,7 @@ from .tumble import TumbleConfig
 
 #: nested settings: field -> its dataclass (a mapping in YAML / JSON)
 _NESTED = {"target": TargetConfig, "tumble": TumbleConfig, "sensing": SensingConfig,
-           "policy": PolicyConfig}
+           "policy": PolicyConfig, "launch": LaunchConfig}
 
 
 class ConfigError(ValueError):
@@ -174,6 +175,7 @@ class SimConfig:
     tumble: TumbleConfig = field(default_factory=TumbleConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
+    launch: LaunchConfig = field(default_factory=LaunchConfig)
 
     def __post_init__(self):
         for name, (lo, hi, what) in _LIMITS.items():

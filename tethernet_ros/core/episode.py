@@ -26,7 +26,10 @@ class CaptureSimulation:
     """One episode of a :class:`Scenario`: advances it with the numba kernel (a batch of
     one lane), or, inside a batch (:mod:`tethernet_ros.core.batch`), reads its lane.
 
-    Time is kept as an integer step count; ``time`` = step * dt (s).
+    Time is kept as integer step counts: ``step`` the flight's, from the launch (the
+    horizon and the settle count from it); ``launch_step`` the steps the chaser waited
+    before firing (``core.launch``); ``time`` = (launch_step + step) * dt (s), the
+    mission's time, from the first moment the chaser could have fired.
     """
 
     def __init__(self, scenario: Scenario):
@@ -45,8 +48,17 @@ class CaptureSimulation:
         return int(self.s.events[kn.E_STEP])
 
     @property
+    def launch_step(self) -> int:
+        return int(self.s.events[kn.E_LAUNCH_STEP])
+
+    @property
+    def launch_time(self) -> float:
+        """How long the chaser waited before firing (s)."""
+        return self.launch_step * self.dt
+
+    @property
     def time(self) -> float:
-        return self.step * self.dt
+        return (self.launch_step + self.step) * self.dt
 
     @property
     def closing_active(self) -> bool:
@@ -59,7 +71,7 @@ class CaptureSimulation:
     @property
     def closing_time(self) -> float | None:
         cs = self.closing_step
-        return None if cs is None else cs * self.dt
+        return None if cs is None else (self.launch_step + cs) * self.dt
 
     @property
     def locked_pairs(self) -> int:
@@ -70,6 +82,24 @@ class CaptureSimulation:
         cs = self.closing_step
         return self.horizon_steps if cs is None else cs + self.settle_steps
 
+    @property
+    def launched(self) -> bool:
+        """Whether the net has left (an in-kernel launch policy has fired by the time the
+        simulation exists; 'external' waits for :meth:`fire`)."""
+        return bool(self.s.events[kn.E_LAUNCHED])
+
+    def fire(self) -> None:
+        """Launch now (a controller outside the kernel decided: launch policy 'external')."""
+        from .kernel.launch import fire
+        fire(self.data, self.s.lane)
+
+    def hold(self) -> None:
+        """Do not launch at this step: the target turns one step on, the net stays stowed."""
+        from .kernel.launch import hold
+        if self.launched:
+            raise RuntimeError("the net has already left: it cannot be held")
+        hold(self.s.kernel()[0], self.data, self.scratch, self.s.lane)
+
     def advance(self, n_steps: int) -> None:
         """Advance ``n_steps`` integration steps (mutates the scenario arrays).  A lane of a
         batch is advanced by its batch, not here."""
@@ -77,6 +107,9 @@ class CaptureSimulation:
             return
         if self.scratch is None:
             raise RuntimeError("a lane of a batch is advanced by the batch")
+        if not self.launched:
+            raise RuntimeError("the net has not left: the launch policy 'external' needs a "
+                               "controller outside the kernel to fire it (fire())")
         model = self.s.kernel()[0]   # set_params may have rebuilt it
         advance_kernel(self.cfg, model, self.data, self.scratch, n_steps)
 
@@ -176,12 +209,14 @@ class EpisodeTrace:
 #: messages), in this order: the one home of the list.
 RESULT_FIELDS: tuple[str, ...] = ("success", "settled_cqi", "locked_pairs", "closing_time",
                                   "completion_time", "mass", "failure_reason", "wall_time",
-                                  "seed", "steps", "max_penetration", "settled_terms")
+                                  "seed", "steps", "max_penetration", "settled_terms",
+                                  "launch_time")
 
 
 @dataclass
 class EpisodeResult:
-    """Outcome of one capture.  Times in s, mass in kg; NaN where undefined."""
+    """Outcome of one capture.  Times in s, from the first moment the chaser could have
+    fired (``launch_time``: how long it waited); mass in kg; NaN where undefined."""
 
     success: bool
     settled_cqi: float
@@ -195,6 +230,7 @@ class EpisodeResult:
     steps: int
     max_penetration: float
     settled_terms: dict | None = None
+    launch_time: float = 0.0
     trace: EpisodeTrace | None = None
 
     def to_dict(self, with_trace: bool = False) -> dict:
@@ -252,7 +288,7 @@ class EpisodeRecorder:
         metric_every, state_every = self.clock.metric_every, self.clock.state_every
         if trace is not None and step % metric_every == 0:
             terms = sim.cqi()
-            trace.time.append(step * sim.dt)
+            trace.time.append((sim.launch_step + step) * sim.dt)
             trace.cqi.append(terms.cqi)
             trace.volume_term.append(terms.volume_term)
             trace.area_term.append(terms.area_term)
@@ -260,7 +296,7 @@ class EpisodeRecorder:
             trace.locked_pairs.append(sim.locked_pairs)
             trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.target_body.pos[2]))
         if trace is not None and state_every and step % state_every == 0:
-            trace.state_time.append(step * sim.dt)
+            trace.state_time.append((sim.launch_step + step) * sim.dt)
             trace.positions.append(sim.s.bodies.x.copy())
             trace.target_pose.append([*sim.s.target_body.pos, *sim.s.target_body.quat])
         if observer is not None and step % metric_every == 0:
@@ -306,7 +342,7 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
     elif not sim.closing_active:
         success, cqi_val, n_l = False, math.nan, sim.locked_pairs
         reason = f"closing never triggered within the {cfg.horizon:g} s horizon"
-        completion = cfg.horizon
+        completion = sim.launch_time + cfg.horizon
     else:
         terms = sim.cqi()
         settled = terms.to_dict()
@@ -318,7 +354,8 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         closing_time=sim.closing_time if sim.closing_active else math.nan,
         completion_time=completion, mass=mass, failure_reason=reason,
         wall_time=wall_time, seed=None, steps=sim.step,
-        max_penetration=sim.max_penetration, settled_terms=settled, trace=trace)
+        max_penetration=sim.max_penetration, settled_terms=settled,
+        launch_time=sim.launch_time, trace=trace)
 
 
 def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,

@@ -15,6 +15,7 @@ from .kernel.data import lane_of
 from .kernel.model import reference_point
 from .kernel.sensing import TARGET_POSITIONS, seed_state, sensor_slots
 from .kernel.state import bind_lane
+from .launch import launch_model
 from .policies import PolicyConfig
 from .sensing import SensingConfig
 from .tumble import TumbleConfig, axis_quaternion, quat_multiply, spin_of
@@ -182,6 +183,7 @@ class Scenario:
     close_threshold: float = 0.0
     iterations: int = 4
     control: kn.ControlModel | None = None
+    launch: object = None
     sensor_seed: int = 0
     broadphase: str = "on"
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
@@ -200,20 +202,26 @@ class Scenario:
     def _build_model(self) -> kn.Model:
         from .kernel.model import build_model
         return build_model(self.bodies, self.grid, self.links, self.drawstring, self.tether,
-                           self.target_body, self.control, self.params, self.iterations,
+                           self.target_body, self.control, self.launch, self.params,
+                           self.iterations,
                            kn.BROADPHASE_MODES.index(self.broadphase))
 
     def kernel(self) -> tuple[kn.Model, kn.Data]:
         """The kernel's (Model, Data) of this episode: on first call a Data of one lane is
-        built and the parts become views of it; after :meth:`attach`, the batch's."""
+        built and the parts become views of it, and an in-kernel launch policy waits until
+        it fires (``kernel.launch``): the episode then starts at its launch; after
+        :meth:`attach`, the batch's."""
         if self._kernel is None:
             from .kernel.data import one_lane
             ct = self.control
             data = one_lane(self.bodies, self.links, self.drawstring, self.target_body,
                             self.close_threshold, self.events, self.warm,
                             sensor_slots(ct), self.sensor_seed)
-            self._kernel = (self._build_model(), data)
+            model = self._build_model()
+            self._kernel = (model, data)
             self._bind(data, 0)
+            if self.events[kn.E_LAUNCHED] == 0 and model.launch.policy != kn.LAUNCH_EXTERNAL:
+                kn.wait_for_launch(model, data, kn.new_scratch(model, 1))
         return self._kernel
 
     def attach(self, model: kn.Model, data: kn.Data, lane: int) -> None:
@@ -322,6 +330,9 @@ def build_scenario(design: Design, actions: Actions, world: World,
     sc.dt = cfg.step_for(sc.stable_step)
     sc.set_params(dt=sc.dt)
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
+    sc.launch = launch_model(cfg.launch, sc.control.period, sc.dt, design, cfg, target.inertia)
+    if not cfg.launch.immediate:
+        sc.events[kn.E_LAUNCHED] = 0
     return sc
 
 

@@ -76,11 +76,12 @@ class SampleResult:
     cpu_time: float = 0.0
     attempts: int = 1
     trace: dict | None = None
+    launch_time: float = 0.0
 
     # fields that must agree bit for bit whichever backend ran the sample
     DETERMINISTIC = ("key", "seed", "success", "settled_cqi", "locked_pairs", "closing_time",
                      "completion_time", "mass", "failure_reason", "category", "steps",
-                     "max_penetration", "trace")
+                     "max_penetration", "trace", "launch_time")
 
     def outcome(self) -> dict:
         """The deterministic part (no wall time, index or attempt count), for comparisons."""
@@ -100,6 +101,8 @@ class SampleResult:
                   "wall_time", "cpu_time"):
             if d.get(k) is None:
                 d[k] = math.nan
+        if "launch_time" in d and d["launch_time"] is None:
+            d["launch_time"] = math.nan     # (a record before launch policies has none: 0)
         return cls(**d)
 
 
@@ -122,7 +125,8 @@ def sample_result(task: EpisodeTask, episode, cpu_time: float = 0.0, trace: dict
         max_penetration=float(episode.max_penetration if max_penetration is None
                               else max_penetration),
         wall_time=float(episode.wall_time if wall_time is None else wall_time),
-        cpu_time=cpu_time, attempts=task.attempt + 1, trace=trace)
+        cpu_time=cpu_time, attempts=task.attempt + 1, trace=trace,
+        launch_time=float(getattr(episode, "launch_time", 0.0)))
 
 
 def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:

@@ -6,7 +6,8 @@ alone to what the source's text says (docs/model.md §1-5), then all of them tog
 solver's sweeps.  ``agreement``: the default integrator against the other one, same model.
 ``trigger``: which point the closing trigger follows (docs/model.md §14): the net's
 reference points and the planned target distance.  ``tumbling``: the target spinning at
-each rate about each axis, under the threshold and the adaptive policy.
+each rate about each axis, under the threshold and the adaptive policy.  ``launch``: the
+flat spins and a precessing one, the immediate against the predictive launch.
 """
 from __future__ import annotations
 
@@ -158,6 +159,45 @@ def tumbling_cells(base: SimConfig) -> list[Cell]:
     return cells
 
 
-STUDIES = {"models": model_cells, "convergence": convergence_cells, "agreement": agreement_cells,
-           "trigger": trigger_cells, "tumbling": tumbling_cells}
+#: the launch study's sensing, stated (docs/studies/launch.md): 50 Hz, 60 ms latency, 2 cm
+#: on positions, 2 deg on the attitude and 0.1 deg/s on the angular velocity, per axis
+LAUNCH_SENSING = {"rate_hz": 50.0, "latency": 0.06, "sigma_position": 0.02,
+                  "sigma_attitude_deg": 2.0, "sigma_rate_deg_s": 0.1}
+#: its precessing case: a spin about a body axis between the long and the flat one
+#: (63 deg from the long axis), where the stage's long axis cones about its momentum
+PRECESSING_AXIS = (0.5, 1.0, 0.0)
+PRECESSING_RATES = (2.0, 8.0)
+LAUNCHES = ("immediate", "predictive")
+
+
+def launch_cells(base: SimConfig) -> list[Cell]:
+    """Each flat-spin rate, then the precessing spin, under each closing policy, with the
+    immediate and the predictive launch side by side, all with LAUNCH_SENSING's noise
+    (unless the base configuration has noise of its own): label '<axis> <rate> <closing>
+    <launch>'."""
+    from ..core.launch import LaunchConfig
+    from ..core.policies import PolicyConfig
+    from ..core.sensing import SensingConfig
+    from ..core.tumble import TumbleConfig
+
+    sensing = (SensingConfig(**{**vars(base.sensing), **LAUNCH_SENSING})
+               if base.sensing.noiseless else base.sensing)
+    spins = [("flat", rate, "flat") for rate in TUMBLE_RATES]
+    spins += [("precessing", rate, PRECESSING_AXIS) for rate in PRECESSING_RATES]
+    cells = []
+    for name, rate, axis in spins:
+        for kind in ("threshold", "adaptive"):
+            for launch in LAUNCHES:
+                cfg = base.replace(tumble=TumbleConfig(rate_deg_s=rate, axis=axis),
+                                   policy=PolicyConfig(**{**vars(base.policy), "kind": kind}),
+                                   launch=LaunchConfig(**{**vars(base.launch), "kind": launch}),
+                                   sensing=sensing)
+                cells.append(Cell(f"{name} {rate:g} {kind} {launch}",
+                                  f"{rate:g} deg/s about the {name} axis, {kind} closing, "
+                                  f"{launch} launch", cfg))
+    return cells
+
+
+STUDIES = {"launch": launch_cells, "models": model_cells, "convergence": convergence_cells,
+           "agreement": agreement_cells, "trigger": trigger_cells, "tumbling": tumbling_cells}
 

@@ -19,7 +19,8 @@ from ..core.metrics import wilson_interval
 @dataclass(frozen=True)
 class CellStats:
     """One cell of one design: n samples, successes, P*_s and its Wilson 95 % interval,
-    mean T (s) and failures by category."""
+    mean T (s), failures by category and the mean time the chaser waited before it fired
+    (s; docs/model.md §16)."""
 
     label: str
     design: str
@@ -30,6 +31,7 @@ class CellStats:
     hi: float
     mean_t: float
     failures: dict
+    mean_wait: float = 0.0
 
     @property
     def half_width(self) -> float:
@@ -42,8 +44,11 @@ class CellStats:
         lo, hi = wilson_interval(k, n)
         ts = [s.completion_time for s in samples if math.isfinite(s.completion_time)]
         fails = Counter(s.category or s.failure_reason for s in samples if not s.success)
+        waits = [float(getattr(s, "launch_time", 0.0)) for s in samples]
+        waits = [w for w in waits if math.isfinite(w)]
         return cls(label, design, n, k, k / n if n else math.nan, lo, hi,
-                   sum(ts) / len(ts) if ts else math.nan, dict(fails))
+                   sum(ts) / len(ts) if ts else math.nan, dict(fails),
+                   sum(waits) / len(waits) if waits else math.nan)
 
 
 @dataclass(frozen=True)

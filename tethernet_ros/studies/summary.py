@@ -111,8 +111,10 @@ class CellRecord:
         if not isinstance(failures, dict):
             raise ValueError("failures must be a mapping")
         lo, hi = wilson_interval(k, n)            # from the verdicts, not from the file
+        wait = rec.get("mean_wait", 0.0)     # (a summary before launch policies: no wait)
         stats = CellStats(label, design, n, k, k / n if n else math.nan, lo, hi,
-                          math.nan if mean_t is None else float(mean_t), dict(failures))
+                          math.nan if mean_t is None else float(mean_t), dict(failures),
+                          math.nan if wait is None else float(wait))
         times = rec.get("closing_times")
         if times is not None:
             if not isinstance(times, list) or len(times) != n:

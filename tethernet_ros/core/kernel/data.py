@@ -22,9 +22,12 @@ from .sensing import new_sensor_data
 #: the stage before it can touch it, else its penetration would expel it explosively).
 CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE = 0, 1, 2
 
-#: Integer episode state, one int64 array; these name its slots.
-E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED = range(5)
-N_EV = 5
+#: Integer episode state, one int64 array; these name its slots.  E_STEP counts the
+#: flight's steps from the launch; E_LAUNCH_STEP the steps the chaser waited before it
+#: (``launch``), E_LAUNCHED whether the net has left.
+(E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED, E_LAUNCH_STEP,
+ E_LAUNCHED) = range(7)
+N_EV = 7
 
 #: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
 #: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (CONTACT_*);
@@ -70,9 +73,12 @@ Data = namedtuple("Data", "bodies links ring target warm events close_threshold 
                           "contact_count max_penetration broad")
 
 
-def new_events(closing_armed: bool = True, tether_locked: bool = False) -> np.ndarray:
-    """A fresh events array: step 0, closing armed (or not), closing step -1."""
+def new_events(closing_armed: bool = True, tether_locked: bool = False,
+               launched: bool = True) -> np.ndarray:
+    """A fresh events array: step 0, closing armed (or not), closing step -1, launched (or
+    waiting to launch, at its step 0)."""
     ev = np.zeros(N_EV, dtype=np.int64)
+    ev[E_LAUNCHED] = 1 if launched else 0
     ev[E_CLOSING_ARMED] = 1 if closing_armed else 0
     ev[E_CLOSING_STEP] = -1
     ev[E_TETHER_LOCKED] = 1 if tether_locked else 0

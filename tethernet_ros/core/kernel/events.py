@@ -8,18 +8,9 @@ from numba import njit
 
 from .data import E_CLOSING_ACTIVE, E_CLOSING_ARMED, E_CLOSING_STEP, E_STEP, E_TETHER_LOCKED
 from .drawstring import update_locks
+from .measure import mission_step, sense
 from .policy import POLICY_EXTERNAL, decide
-from .sensing import buffer_measurement, truth_into
 from .tether import lock_tether
-
-
-@njit(cache=True, inline='always', error_model='numpy')
-def sense(model, data, scr, l) -> int:
-    """Take lane l's measurement of this step (:func:`truth_into`,
-    :func:`buffer_measurement`); the slot of the newest one the controller has, or -1."""
-    out = scr.meas
-    truth_into(model, data, l, out)
-    return buffer_measurement(model.control, data.sensor, l, out, data.events[E_STEP, l])
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -40,7 +31,7 @@ def closing_events(model, data, scr, l):
     ev = data.events
     ct = model.control
     if (ev[E_CLOSING_ARMED, l] == 1 and ev[E_CLOSING_ACTIVE, l] == 0
-            and ev[E_STEP, l] % ct.period == 0):
+            and mission_step(data, l) % ct.period == 0):
         slot = sense(model, data, scr, l)
         if ct.policy != POLICY_EXTERNAL and slot >= 0 \
                 and decide(model, data, l, data.sensor.buf[slot, :, l]):

@@ -77,10 +77,11 @@ TetherModel = namedtuple("TetherModel", "nodes links centre winch")
 #: per lane (``data.TargetData``: the noise model may draw them, docs/noise.md §1).
 TargetModel = namedtuple("TargetModel", "geometry")
 
-#: The whole constant model; iterations: Gauss-Seidel sweeps per implicit step; broadphase:
-#: the contacts' broad phase (index into broadphase.BROADPHASE_MODES; it changes no result).
-Model = namedtuple("Model", "bodies grid links ring tether target control params iterations "
-                            "broadphase", defaults=(BROAD_ON,))
+#: The whole constant model; launch: the launch policy's constants (``launch.LaunchModel``);
+#: iterations: Gauss-Seidel sweeps per implicit step; broadphase: the contacts' broad phase
+#: (index into broadphase.BROADPHASE_MODES; it changes no result).
+Model = namedtuple("Model", "bodies grid links ring tether target control launch params "
+                            "iterations broadphase", defaults=(BROAD_ON,))
 
 
 def steps_every(rate_hz: float, dt: float) -> int:
@@ -107,11 +108,12 @@ def grid_step_constants(k, c, wa, wb, h) -> np.ndarray:
 
 
 def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel, target_body,
-                control: ControlModel,
-                params: Params, iterations: int, broadphase: int = BROAD_ON) -> Model:
+                control: ControlModel, launch, params: Params, iterations: int,
+                broadphase: int = BROAD_ON) -> Model:
     """The constant model of an episode's parts (``state``): each part's constant half, the
-    grid's step constants for the step ``params.dt``; ``broadphase`` the contacts' broad
-    phase mode (``broadphase.BROADPHASE_MODES``)."""
+    grid's step constants for the step ``params.dt``; ``launch`` the launch policy's
+    constants (``launch.LaunchModel``); ``broadphase`` the contacts' broad phase mode
+    (``broadphase.BROADPHASE_MODES``)."""
     n = grid.n
     w = np.asarray(bodies.w, dtype=np.float64)
     h = float(params.dt)
@@ -132,7 +134,7 @@ def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel,
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
                            winch=int(tether.winch)),
         target=TargetModel(geometry=target_body.geometry),
-        control=control, params=params, iterations=int(iterations),
+        control=control, launch=launch, params=params, iterations=int(iterations),
         broadphase=int(broadphase))
 
 

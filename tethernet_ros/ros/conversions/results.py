@@ -68,6 +68,7 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
     m.steps = -1 if steps is None else int(steps)
     pen = getattr(result, "max_penetration", math.nan)
     m.max_penetration = math.nan if pen is None else float(pen)
+    m.launch_time = float(getattr(result, "launch_time", 0.0))
     return m
 
 
@@ -80,4 +81,5 @@ def episode_result_from_msg(m) -> EpisodeResult:
         completion_time=float(m.completion_time), mass=float(m.mass),
         failure_reason=m.failure_reason, wall_time=float(m.wall_time),
         seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
-        max_penetration=float(getattr(m, "max_penetration", math.nan)))
+        max_penetration=float(getattr(m, "max_penetration", math.nan)),
+        launch_time=float(getattr(m, "launch_time", math.nan)))

@@ -1,0 +1,82 @@
+"""The launch study's report: for each design, spin and closing policy, P*_s and mean T
+with the immediate launch beside the predictive one, the predictive launch's mean wait, and
+the paired change (flips each way, McNemar's exact p) over the same samples.
+
+The cells are ``studies.cells.launch_cells``: '<axis> <rate> <closing> <launch>'.  A cell
+without results yet is shown as '-'.
+"""
+from __future__ import annotations
+
+import math
+
+from .cells import LAUNCHES
+
+
+def _split(label: str):
+    """(spin, closing, launch) of a cell label, spin being '<axis> <rate>'."""
+    axis, rate, closing, launch = label.split(" ")
+    return f"{axis} {rate}", closing, launch
+
+
+def _p(c) -> str:
+    if c is None or not c.stats.n:
+        return "-"
+    s = c.stats
+    return f"{100 * s.p:.1f} [{100 * s.lo:.1f}, {100 * s.hi:.1f}]"
+
+
+def _num(x, fmt="{:.2f}") -> str:
+    return "-" if x is None or not math.isfinite(x) else fmt.format(x)
+
+
+def launch_pairs(designs: list[str], cells: list, records: dict) -> dict:
+    """(spin, closing, design) -> PairedStats of the predictive launch (b) against the
+    immediate one (a) over the same samples, where both cells are complete."""
+    from .tumbling import _paired
+
+    out = {}
+    for c in cells:
+        spin, closing, launch = _split(c.label)
+        if launch != LAUNCHES[0]:
+            continue
+        for d in designs:
+            got = _paired(records.get((c.label, d)),
+                          records.get((f"{spin} {closing} {LAUNCHES[1]}", d)))
+            if got is not None:
+                out[(spin, closing, d)] = got
+    return out
+
+
+def launch_table(designs: list[str], cells: list, records: dict) -> str:
+    """Markdown: per design, a row per (spin, closing policy)."""
+    pairs = launch_pairs(designs, cells, records)
+    out = []
+    for d in designs:
+        out.append(f"### {d}\n")
+        out.append("| spin (deg/s) | closing | P*_s immediate % [95 %] | mean T (s) | "
+                   "P*_s predictive % [95 %] | mean wait (s) | mean T (s) | "
+                   "flips imm / pred | McNemar p |")
+        out.append("|---|---|---|---|---|---|---|---|---|")
+        for c in cells:
+            spin, closing, launch = _split(c.label)
+            if launch != LAUNCHES[0]:
+                continue
+            a = records.get((c.label, d))
+            b = records.get((f"{spin} {closing} {LAUNCHES[1]}", d))
+            p = pairs.get((spin, closing, d))
+            flips = "-" if p is None else f"{p.a_only} / {p.b_only}"
+            mp = "-" if p is None else f"{p.mcnemar_p:.2g}"
+            out.append(f"| {spin} | {closing} | {_p(a)} | "
+                       f"{_num(a.stats.mean_t) if a else '-'} | {_p(b)} | "
+                       f"{_num(b.stats.mean_wait, '{:.1f}') if b else '-'} | "
+                       f"{_num(b.stats.mean_t) if b else '-'} | {flips} | {mp} |")
+        out.append("")
+    return "\n".join(out) + "\n"
+
+
+def launch_summary(pairs: dict) -> list[dict]:
+    """The paired changes for the study's summary file."""
+    return [{"spin": spin, "closing": closing, "design": d, "p_immediate": p.a.p,
+             "p_predictive": p.b.p, "immediate_only": p.a_only, "predictive_only": p.b_only,
+             "mcnemar_p": p.mcnemar_p, "mean_wait": p.b.mean_wait, "t_diff": p.t_diff}
+            for (spin, closing, d), p in pairs.items()]
