@@ -15,9 +15,9 @@ from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.core.episode import CaptureSimulation, run_episode
 from tethernet_ros.core.kernel.launch import predicted_largest_az
 from tethernet_ros.core.kernel.sensing import C_OMEGA, C_QUAT, N_CHANNELS
-from tethernet_ros.core.launch import LaunchConfig, LaunchError, planned_window
+from tethernet_ros.core.launch import LaunchConfig, LaunchError
 from tethernet_ros.core.noise import NoiseModel
-from tethernet_ros.core.scenario import launch_attitude, scenario_for
+from tethernet_ros.core.scenario import launch_attitude, planned_window, scenario_for
 from tethernet_ros.core.sensing import SensingConfig
 from tethernet_ros.core.tumble import TumbleConfig, free_rotation
 
@@ -92,8 +92,7 @@ def test_the_predictive_policy_fires_when_the_stage_will_lie_across_the_line_of_
     """With ideal sensing, at the launch the true free rotation over the planned window
     keeps |a_z| within the accepted tilt (up to the prediction's error), and one decision
     earlier it did not."""
-    start, close = planned_window(DESIGN, PREDICTIVE)
-    end = close + PREDICTIVE.policy.closing_time
+    start, end = planned_window(DESIGN, PREDICTIVE)
     limit = math.sin(math.radians(PREDICTIVE.launch.max_tilt_deg))
     waited = 0
     for seed in (1, 3, 4):

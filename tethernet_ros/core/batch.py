@@ -23,9 +23,9 @@ from . import kernel as kn
 from .config import SimConfig
 from .design import Design
 from .episode import (CaptureSimulation, EpisodeClock, EpisodeRecorder, EpisodeResult,
-                      advance_kernel, after_stop, episode_result)
+                      after_stop, episode_result)
 from .noise import NoiseSample
-from .scenario import Scenario, scenario_for
+from .scenario import Scenario, advance_kernel, scenario_for
 
 #: lane counts :func:`choose_lanes` tries
 LANE_CHOICES = (1, 2, 4, 8, 16)

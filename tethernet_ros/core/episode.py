@@ -17,7 +17,8 @@ from .config import SimConfig
 from .design import Design
 from .metrics import CQITerms, capture_quality_index, capture_verdict
 from .noise import NoiseSample
-from .scenario import Actions, Scenario, World, actions_for, build_scenario, world_for
+from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, build_scenario,
+                       world_for)
 from .kernel.model import steps_every
 from .kernel.sensing import seed_state
 
@@ -243,14 +244,6 @@ class EpisodeResult:
             t["positions"] = [p.tolist() for p in self.trace.positions]
             d["trace"] = t
         return d
-
-
-def advance_kernel(cfg: SimConfig, model, data, scratch, n_steps: int) -> None:
-    """Advance every lane of ``data`` by ``n_steps`` with the configured method."""
-    if cfg.integrator == "implicit":
-        kn.advance_implicit(model, data, scratch, n_steps)
-    else:
-        kn.advance_explicit(model, data, scratch, n_steps)
 
 
 class EpisodeClock:

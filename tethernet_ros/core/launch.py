@@ -27,7 +27,7 @@ from . import detmath
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, immediate_launch
 from .kernel.model import steps_every
 
-__all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "launch_model", "planned_window"]
+__all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "launch_model"]
 
 #: (low, high, words) of the numeric settings
 _LIMITS = {
@@ -75,65 +75,17 @@ class LaunchConfig:
         return self.kind == "immediate"
 
 
-def planned_window(design, config) -> tuple[float, float]:
-    """(arrival, closing) (s after the launch) of the design's planned capture: when the
-    net's centre of mass reaches the target's centre, and when closing starts, in the
-    nominal episode (no noise, the target at rest, ideal sensing, fired at once; its
-    flight only, up to closing).  This is what the chaser plans from its own design; the
-    net slows as it spreads, so a constant-speed estimate from the launch momentum comes
-    7-24 % early on the reference designs (docs/model.md §16).  Computed once per design
-    and configuration in a process."""
-    from .policies import PolicyConfig
-    from .sensing import SensingConfig
-    from .tumble import TumbleConfig
-
-    plan = config.replace(launch=LaunchConfig(), tumble=TumbleConfig(), sensing=SensingConfig(),
-                          policy=PolicyConfig(**{**vars(config.policy)}), state_rate=0.0)
-    key = (repr(design), repr(plan))
-    if key not in _WINDOWS:
-        if len(_WINDOWS) >= 256:
-            _WINDOWS.clear()
-        _WINDOWS[key] = _planned_window(design, plan)
-    return _WINDOWS[key]
-
-
-_WINDOWS: dict = {}
-
-
-def _planned_window(design, plan) -> tuple[float, float]:
-    from .episode import CaptureSimulation, EpisodeClock
-    from .scenario import scenario_for
-
-    sim = CaptureSimulation(scenario_for(design, None, plan))
-    clock = EpisodeClock(plan, sim.dt)
-    arrival = math.nan
-    end = sim.horizon_steps
-    while not sim.closing_active and sim.step < end:
-        sim.advance(clock.next_stop(sim.step, end) - sim.step)
-        if math.isnan(arrival) and sim.net_centre_of_mass()[2] >= sim.s.target_body.pos[2]:
-            arrival = sim.time
-        if sim.divergence():
-            break
-    if not sim.closing_active:
-        raise LaunchError(f"launch: the design's planned capture never closes within the "
-                          f"{plan.horizon:g} s horizon; a launch policy needs a planned "
-                          "closing time")
-    close = float(sim.closing_time)
-    return (close if math.isnan(arrival) else min(arrival, close)), close
-
-
-def launch_model(launch: LaunchConfig, sensing_period: int, dt: float, design, config,
+def launch_model(launch: LaunchConfig, sensing_period: int, dt: float, window,
                  inertia) -> LaunchModel:
     """The kernel's launch constants (``kernel.launch.LaunchModel``): decisions every
     ``rate_hz`` on whole sensing periods (``sensing_period`` steps of ``dt`` s); the
-    window from the planned arrival of the net at the target's centre to the planned end
-    of closing (:func:`planned_window`, then the closing policy's ``closing_time``);
-    ``inertia``: the shape's principal moments (kg m^2)."""
+    prediction's ``window`` (start, end) (s after the launch: the planned arrival of the
+    net at the target's centre and the planned end of closing,
+    ``scenario.planned_window``); ``inertia``: the shape's principal moments (kg m^2)."""
     if launch.immediate:
         return immediate_launch()
     period = sensing_period * max(1, int(round(steps_every(launch.rate_hz, dt) / sensing_period)))
-    start, close = planned_window(design, config)
-    end = close + config.policy.closing_time
+    start, end = window
     return LaunchModel(policy=launch.index, period=period,
                        max_wait=int(round(launch.max_wait / dt)),
                        cos_limit=detmath.sin(launch.max_tilt_deg * math.pi / 180.0),
