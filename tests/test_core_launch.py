@@ -62,7 +62,7 @@ def test_the_wait_turns_the_target_as_the_kernels_free_rotation_bit_for_bit():
     sc = scenario_for(DESIGN, sample, PREDICTIVE)
     sim = CaptureSimulation(sc)
     wait = sim.launch_step
-    assert wait > 0 and wait % sc.launch.period == 0
+    assert wait > 0 and wait % sc.control.period == 0
     q0, L0, inertia = launch_attitude(DESIGN, sample, PREDICTIVE)
     want = free_rotation(q0, L0, inertia, wait * sim.dt, dt=sim.dt)
     assert np.array_equal(sc.target_body.quat, want)
@@ -105,7 +105,7 @@ def test_the_predictive_policy_fires_when_the_stage_will_lie_across_the_line_of_
         assert worst <= limit + 2e-3, (seed, worst)
         if sim.launch_step:
             waited += 1
-            earlier = t_launch - sim.s.launch.period * sim.dt
+            earlier = t_launch - sim.s.control.period * sim.dt
             before = max(_a_z(free_rotation(q0, L0, inertia, earlier + t))
                          for t in np.linspace(start, end, 9))
             assert before > limit - 2e-3, (seed, before)
@@ -123,12 +123,15 @@ def test_mission_clock_counts_the_wait():
 
 
 def test_the_chaser_fires_at_max_wait():
-    """A tilt no attitude meets: the chaser fires at the first decision at or after
-    max_wait."""
+    """A tilt no attitude meets: the chaser fires at its first measurement at or after
+    max_wait (every step with the default sensing; at 20 Hz every 50 steps)."""
     cfg = SimConfig(tumble=FLAT2, launch=LaunchConfig(kind="predictive", max_tilt_deg=0.1,
-                                                      max_wait=2.05))
+                                                      max_wait=2.01))
     sim = CaptureSimulation(scenario_for(DESIGN, NoiseModel().sample(2), cfg))
-    assert sim.launch_time == pytest.approx(2.1)
+    assert sim.launch_step == 2010
+    cfg = cfg.replace(sensing=SensingConfig(rate_hz=20.0))
+    sim = CaptureSimulation(scenario_for(DESIGN, NoiseModel().sample(2), cfg))
+    assert sim.launch_step == 2050
 
 
 def test_noisy_sensing_with_latency_is_deterministic_and_batches_equal_single_runs():

@@ -25,7 +25,6 @@ import numpy as np
 
 from . import detmath
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, immediate_launch
-from .kernel.model import steps_every
 
 __all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "launch_model"]
 
@@ -33,7 +32,6 @@ __all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "launch_model"]
 _LIMITS = {
     "max_wait": (0.0, 3600.0, "a time in [0, 3600] s"),
     "max_tilt_deg": (0.1, 90.0, "an angle in [0.1, 90] deg"),
-    "rate_hz": (0.01, 1000.0, "a rate in [0.01, 1000] Hz"),
 }
 
 
@@ -48,13 +46,12 @@ class LaunchConfig:
     flat spin shows every attitude within it); max_tilt_deg: the largest angle between the
     long axis and the plane across the line of sight the predictive policy accepts
     (default 30 deg, |a_z| <= 0.5: the bin in which the tumbling study's Case choices
-    captured 57-59 of 59 samples); rate_hz: decisions per second (rounded to a whole number
-    of sensing periods)."""
+    captured 57-59 of 59 samples).  The policy decides at every measurement (the sensing
+    rate, ``core.sensing``), as the closing policy does."""
 
     kind: str = "immediate"
     max_wait: float = 360.0
     max_tilt_deg: float = 30.0
-    rate_hz: float = 10.0
 
     def __post_init__(self):
         if self.kind not in LAUNCH_POLICIES:
@@ -75,18 +72,15 @@ class LaunchConfig:
         return self.kind == "immediate"
 
 
-def launch_model(launch: LaunchConfig, sensing_period: int, dt: float, window,
-                 inertia) -> LaunchModel:
-    """The kernel's launch constants (``kernel.launch.LaunchModel``): decisions every
-    ``rate_hz`` on whole sensing periods (``sensing_period`` steps of ``dt`` s); the
-    prediction's ``window`` (start, end) (s after the launch: the planned arrival of the
+def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchModel:
+    """The kernel's launch constants (``kernel.launch.LaunchModel``) for a step of ``dt``
+    s: the prediction's ``window`` (start, end) (s after the launch: the planned arrival of the
     net at the target's centre and the planned end of closing,
     ``scenario.planned_window``); ``inertia``: the shape's principal moments (kg m^2)."""
     if launch.immediate:
         return immediate_launch()
-    period = sensing_period * max(1, int(round(steps_every(launch.rate_hz, dt) / sensing_period)))
     start, end = window
-    return LaunchModel(policy=launch.index, period=period,
+    return LaunchModel(policy=launch.index,
                        max_wait=int(round(launch.max_wait / dt)),
                        cos_limit=detmath.sin(launch.max_tilt_deg * math.pi / 180.0),
                        window_start=float(start), window_end=float(end),

@@ -330,7 +330,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     sc.dt = cfg.step_for(sc.stable_step)
     sc.set_params(dt=sc.dt)
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
-    sc.launch = launch_model(cfg.launch, sc.control.period, sc.dt,
+    sc.launch = launch_model(cfg.launch, sc.dt,
                              None if cfg.launch.immediate else planned_window(design, cfg),
                              target.inertia)
     if not cfg.launch.immediate:

@@ -34,20 +34,20 @@ LAUNCH_IMMEDIATE, LAUNCH_PREDICTIVE, LAUNCH_EXTERNAL = range(3)
 FLIGHT_STEPS = 64
 WINDOW_STEPS = 8
 
-#: The launch's constants: policy (index into LAUNCH_POLICIES); period: steps between
-#: decisions (a multiple of the sensing period); max_wait: steps after which the chaser
-#: fires anyway; cos_limit: the largest |a_z| (the cosine between the long axis and the
-#: line of sight) the predictive policy accepts over its window; window_start,
+#: The launch's constants: policy (index into LAUNCH_POLICIES); max_wait: steps after
+#: which the chaser fires anyway (at its next measurement); cos_limit: the largest |a_z|
+#: (the cosine between the long axis and the line of sight) the predictive policy
+#: accepts over its window; window_start,
 #: window_end (s after the launch): when the net is predicted to reach the target's centre
 #: and to finish closing; inertia (3,): the principal moments the chaser believes the
 #: target has (kg m^2), its shape's.
-LaunchModel = namedtuple("LaunchModel", "policy period max_wait cos_limit window_start "
-                                        "window_end inertia")
+LaunchModel = namedtuple("LaunchModel", "policy max_wait cos_limit window_start window_end "
+                                        "inertia")
 
 
 def immediate_launch() -> LaunchModel:
     """The launch of every episode before launch policies: fire at once."""
-    return LaunchModel(policy=LAUNCH_IMMEDIATE, period=1, max_wait=0, cos_limit=1.0,
+    return LaunchModel(policy=LAUNCH_IMMEDIATE, max_wait=0, cos_limit=1.0,
                        window_start=0.0, window_end=0.0, inertia=np.ones(3))
 
 
@@ -125,10 +125,10 @@ def _drift_untouched(model, data, scr, l):
 
 @njit(cache=True, error_model='numpy')
 def wait_step(model, data, scr, l) -> int:
-    """One step of lane l's wait: at a sensing step, a measurement (buffered with its noise
-    and latency); at a decision step, the policy's decision (or the wait's end).  Returns 1
-    if the lane launches now (the target is then left as it is), else moves its target one
-    step and returns 0; -1 when a decision needs a controller outside the kernel (policy
+    """One step of lane l's wait: at a control step (every sensing period), a measurement
+    (buffered with its noise and latency), then the policy's decision (or, from max_wait
+    on, the launch).  Returns 1 if the lane launches now (the target is then left as it
+    is), else moves its target one step and returns 0; -1 when a decision needs a controller outside the kernel (policy
     'external', before the wait's end: the caller asks it, then calls :func:`fire` or
     :func:`hold`)."""
     ev = data.events
@@ -136,11 +136,8 @@ def wait_step(model, data, scr, l) -> int:
         return 1
     lm = model.launch
     k = ev[E_LAUNCH_STEP, l]
-    ct = model.control
-    slot = -1
-    if k % ct.period == 0:
+    if k % model.control.period == 0:
         slot = sense(model, data, scr, l)
-    if k % lm.period == 0:
         if k >= lm.max_wait:
             ev[E_LAUNCHED, l] = 1
             return 1
