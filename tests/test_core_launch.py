@@ -12,7 +12,7 @@ from tethernet_ros.core import kernel as kn
 from tethernet_ros.core.batch import BatchRunner
 from tethernet_ros.core.config import ConfigError, SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS
-from tethernet_ros.core.episode import CaptureSimulation, run_episode
+from tethernet_ros.core.episode import CaptureSimulation, run_episode, run_simulation
 from tethernet_ros.core.kernel.launch import predicted_largest_az
 from tethernet_ros.core.kernel.sensing import C_OMEGA, C_QUAT, N_CHANNELS
 from tethernet_ros.core.launch import LaunchConfig, LaunchError
@@ -168,3 +168,44 @@ def test_an_external_launch_is_not_flown_without_its_controller():
     assert sim.step == 10 and sim.time == pytest.approx(0.011)
     with pytest.raises(ValueError, match="external"):
         next(BatchRunner(DESIGN, cfg, lanes=1).run([(0, None)]))
+
+
+def test_controllers_outside_the_kernel_give_the_kernels_launch_and_closing_bit_for_bit():
+    """The ROS loop's path in process (ros/loop.py, no ROS): the kernel's policies
+    'external', the truth through a Sensor, the newest measurement through the built-in
+    LaunchPolicy before the launch and the closing Policy after it; the same episode as
+    the in-kernel policies, bit for bit, launch time included."""
+    from tethernet_ros.core.launch import LaunchPolicy
+    from tethernet_ros.core.policies import Policy, PolicyConfig
+    from tethernet_ros.core.sensing import Sensor
+    from tethernet_ros.ros.loop import ControlledSimulation, kernel_config, truth_of
+
+    cfg = PREDICTIVE.replace(settle_time=2.0, policy=PolicyConfig(kind="adaptive"),
+                             sensing=SensingConfig(rate_hz=50.0, latency=0.06,
+                                                   sigma_position=0.02, sigma_attitude_deg=2.0,
+                                                   sigma_rate_deg_s=0.1))
+    sample = NoiseModel().sample(4)
+    inside = run_episode(DESIGN, sample, cfg, record_trace=False)
+    assert inside.launch_time > 0 and math.isfinite(inside.closing_time)
+    own = scenario_for(DESIGN, sample, cfg)            # (built only for its constants)
+    launch_policy = LaunchPolicy(own.launch)
+    policy = Policy(own.kernel()[0], own.close_threshold)
+    sc = scenario_for(DESIGN, sample, kernel_config(cfg))
+    assert sc.launch.policy == kn.LAUNCH_EXTERNAL
+    sensor = Sensor(sc.control, sc.sensor_seed)
+
+    def controller(sim) -> bool:
+        step = sim.launch_step + sim.step
+        meas = sensor.measure(truth_of(sim), step)
+        if meas is None:
+            return False
+        if not sim.launched:
+            return launch_policy.decide(meas, (step - sensor.taken) * sim.dt)
+        return policy.decide(meas)
+
+    sim = ControlledSimulation(sc, controller)
+    sim.wait_for_launch()
+    outside = run_simulation(sim, record_trace=False)
+    a, b = inside.to_dict(), outside.to_dict()
+    a["wall_time"] = b["wall_time"] = a["seed"] = b["seed"] = 0
+    assert a == b

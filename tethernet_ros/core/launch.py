@@ -19,14 +19,15 @@ waiting costs Case 2's objective honestly.  Units: SI; angles in the settings in
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import detmath
-from .kernel.launch import LAUNCH_POLICIES, LaunchModel, immediate_launch
+from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
 
-__all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "launch_model"]
+__all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "LaunchPolicy", "launch_model"]
 
 #: (low, high, words) of the numeric settings
 _LIMITS = {
@@ -86,3 +87,18 @@ def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchMode
                        window_start=float(start), window_end=float(end),
                        inertia=np.ascontiguousarray(inertia, dtype=np.float64))
 
+
+
+class LaunchPolicy:
+    """The launch policy of one episode outside the kernel (the ROS actuator node): the
+    kernel's ``decide_launch`` for the episode's launch constants (``launch`` of its
+    model, built with the episode's own configuration), so the same measurements give the
+    same decision, bit for bit."""
+
+    def __init__(self, launch: LaunchModel):
+        self._model = namedtuple("LaunchPolicyModel", "launch")(launch)
+
+    def decide(self, meas: np.ndarray, age: float) -> bool:
+        """Whether to fire now, given the newest measurement, taken ``age`` s ago."""
+        return bool(decide_launch_one(self._model, np.asarray(meas, dtype=np.float64),
+                                      float(age)))

@@ -399,13 +399,14 @@ def planned_window(design: Design, config: SimConfig) -> tuple[float, float]:
     """(start, end) (s after the launch) of the design's planned capture, the window a
     launch policy predicts over: from when the net's centre of mass reaches the target's
     centre to the end of closing (the closing policy's ``closing_time`` after it starts),
-    in the nominal episode: no noise, the target at rest, ideal sensing, fired at once
-    (its flight only, up to closing).  This is what the chaser plans from its own design;
+    in the nominal episode: no noise, the target at rest, ideal sensing, the source's
+    threshold trigger, fired at once (its flight only, up to closing).  This is what the chaser plans from its own design;
     the net slows as it spreads, so a constant speed from the launch momentum comes 7-24 %
     early on the reference designs (docs/model.md §16).  Once per design and
     configuration in a process."""
     plan = config.replace(launch=LaunchConfig(), tumble=TumbleConfig(),
-                          sensing=SensingConfig(), state_rate=0.0)
+                          sensing=SensingConfig(), state_rate=0.0,
+                          policy=PolicyConfig(closing_time=config.policy.closing_time))
     key = (repr(design), repr(plan))
     if key not in _WINDOWS:
         if len(_WINDOWS) >= 256:

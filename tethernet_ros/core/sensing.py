@@ -108,9 +108,13 @@ class Sensor:
     def __init__(self, control, seed_state_: int):
         self.control = control
         self.state = new_sensor_data(sensor_slots(control), seed_state_)
+        #: the step the last measurement returned was taken at (-1: none yet)
+        self.taken = -1
 
     def measure(self, truth: np.ndarray, step: int) -> np.ndarray | None:
-        """The measurement the controller has at ``step`` after a true measurement taken
-        then (None until the first has arrived)."""
-        out = measure_one(self.control, self.state, np.asarray(truth, dtype=np.float64), int(step))
-        return None if np.isnan(out[0]) else out
+        """The measurement the controller has at ``step`` (the mission's clock,
+        ``kernel.measure``) after a true measurement taken then (None until the first has
+        arrived); :attr:`taken` says when it was taken."""
+        got = measure_one(self.control, self.state, np.asarray(truth, dtype=np.float64), int(step))
+        self.taken = int(got[N_CHANNELS])
+        return None if self.taken < 0 else got[:N_CHANNELS].copy()

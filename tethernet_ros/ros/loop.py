@@ -1,7 +1,11 @@
 """The closing loop cut at its joints, as the nodes run it (no ROS import).
 
-In a *lockstep* episode the closing policy runs outside the kernel: the simulation's
-kernel has the policy 'external' (it never closes by itself), and at every control step
+In a *lockstep* episode the policies run outside the kernel: the simulation's kernel has
+the policies 'external' (it never closes or fires by itself).  Before the launch (a launch
+policy other than 'immediate'), at every control step of the wait, the truth goes to the
+sensor node and its measurement (``launched`` false) to a controller, whose
+LaunchDecision fires the net or lets the target turn one step more.  After it, at every
+control step
 (every ``model.control.period`` integration steps, while closing is armed and not yet
 active) the simulation node hands the true measurement to the sensor node, whose
 measurement goes to a controller (the actuator's built-in policy, or a user's node),
@@ -23,6 +27,7 @@ from dataclasses import replace
 from ..core import kernel as kn
 from ..core.config import SimConfig
 from ..core.episode import CaptureSimulation
+from ..core.launch import LaunchPolicy
 from ..core.policies import Policy
 from ..core.scenario import Actions, Scenario, World, build_scenario
 from ..core.sensing import Sensor, seed_state, true_measurement
@@ -70,10 +75,10 @@ def step_time_summary(times: list[tuple[float, float]]) -> str:
 
 
 def in_lockstep(asked: bool, config: SimConfig) -> bool:
-    """The one rule of when an episode's closing policy runs through ROS: when it was
-    asked for (``lockstep``, a controller node), or when the configuration's policy is
-    'external' (a controller outside the kernel decides, whatever was asked)."""
-    return bool(asked) or config.policy.kind == EXTERNAL
+    """The one rule of when an episode's policies run through ROS: when it was asked for
+    (``lockstep``, a controller node), or when the configuration's closing or launch
+    policy is 'external' (a controller outside the kernel decides, whatever was asked)."""
+    return bool(asked) or config.policy.kind == EXTERNAL or config.launch.kind == EXTERNAL
 
 
 def runs_in_lockstep(setup: Setup) -> bool:
@@ -83,10 +88,14 @@ def runs_in_lockstep(setup: Setup) -> bool:
 
 def kernel_config(config: SimConfig) -> SimConfig:
     """The simulation's configuration of a lockstep episode: the same, with the kernel's
-    policy 'external' (its own sensing and policy settings unchanged)."""
-    if config.policy.kind == EXTERNAL:
-        return config
-    return config.replace(policy=replace(config.policy, kind=EXTERNAL))
+    closing policy 'external', and its launch policy too unless the launch is immediate
+    (their other settings unchanged): every decision is taken through ROS."""
+    out = config
+    if out.policy.kind != EXTERNAL:
+        out = out.replace(policy=replace(out.policy, kind=EXTERNAL))
+    if out.launch.kind not in (EXTERNAL, "immediate"):
+        out = out.replace(launch=replace(out.launch, kind=EXTERNAL))
+    return out
 
 
 def episode_scenario(setup: Setup, actions: Actions, world: World,
@@ -103,6 +112,16 @@ def episode_sensor(setup: Setup, scenario: Scenario) -> Sensor:
     return Sensor(scenario.control, seed_state(setup.seed))
 
 
+def episode_launch_policy(setup: Setup, scenario: Scenario) -> LaunchPolicy | None:
+    """The episode's built-in launch policy outside the kernel (the actuator node's);
+    None when the launch is immediate (nothing to decide) or 'external' (a user's
+    controller decides).  ``scenario`` must be built with the episode's own
+    configuration (not :func:`kernel_config`'s)."""
+    if setup.config.launch.kind in (EXTERNAL, "immediate"):
+        return None
+    return LaunchPolicy(scenario.launch)
+
+
 def episode_policy(setup: Setup, scenario: Scenario) -> Policy | None:
     """The episode's built-in policy outside the kernel (the actuator node's): the kind of
     its configuration, for its commanded closing displacement; None for 'external' (no
@@ -115,9 +134,10 @@ def episode_policy(setup: Setup, scenario: Scenario) -> Policy | None:
 
 def control_step_due(sim: CaptureSimulation, period: int) -> bool:
     """Whether the kernel would sense and decide after the current step: a control step
-    while closing is armed and not yet active (``closing_events``)."""
+    of the mission's clock while closing is armed and not yet active
+    (``closing_events``)."""
     ev = sim.s.events
-    return (sim.step % period == 0 and ev[kn.E_CLOSING_ARMED] == 1
+    return ((sim.launch_step + sim.step) % period == 0 and ev[kn.E_CLOSING_ARMED] == 1
             and ev[kn.E_CLOSING_ACTIVE] == 0)
 
 
@@ -127,16 +147,39 @@ def truth_of(sim: CaptureSimulation):
 
 
 class ControlledSimulation(CaptureSimulation):
-    """A CaptureSimulation whose closing is decided outside the kernel (a lockstep
-    episode's; the kernel's policy 'external'): ``advance`` stops at every control step
-    where the kernel would decide (:func:`control_step_due`), asks ``controller(self)``,
-    and commands closing at that step if it says so.  ``run_simulation`` on it is the
-    in-kernel closed loop, bit for bit.  Without a controller it is a CaptureSimulation."""
+    """A CaptureSimulation whose decisions are taken outside the kernel (a lockstep
+    episode's; the kernel's policies 'external'): ``advance`` stops at every control step
+    where the kernel would decide closing (:func:`control_step_due`), asks
+    ``controller(self)``, and commands closing at that step if it says so;
+    :meth:`wait_for_launch` asks it at every control step of the wait before the launch
+    (``self.launched`` false), and fires when it says so.  ``run_simulation`` after
+    :meth:`wait_for_launch` is the in-kernel closed loop, bit for bit.  Without a
+    controller it is a CaptureSimulation."""
 
     def __init__(self, scenario: Scenario, controller=None):
         super().__init__(scenario)
         self.controller = controller
         self.period = int(self.model.control.period)
+
+    def wait_for_launch(self) -> None:
+        """The wait before the launch, step by step as the kernel's (``kernel.launch``):
+        at a control step the kernel's sensor measures and the controller decides; the
+        net is fired when it says so, or at max_wait."""
+        from ..core.kernel.launch import wait_step
+
+        if self.launched:
+            return
+        if self.controller is None:
+            raise RuntimeError("the launch policy 'external' needs a controller")
+        while True:
+            r = wait_step(self.model, self.data, self.scratch, self.s.lane)
+            if r > 0:
+                return
+            if r < 0:
+                if self.controller(self):
+                    self.fire()
+                    return
+                self.hold()
 
     def advance(self, n_steps: int) -> None:
         if self.controller is None:

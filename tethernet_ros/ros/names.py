@@ -33,6 +33,7 @@ TOPICS: dict[str, str] = {
     "true_measurement": "/tethernet/true_measurement",
     "measurement": "/tethernet/measurement",
     "closing_decision": "/tethernet/closing_decision",
+    "launch_decision": "/tethernet/launch_decision",
     "sensed_target_pose": "/tethernet/sensed/target_pose",
     "sensed_target_twist": "/tethernet/sensed/target_twist",
     "sensed_net_point": "/tethernet/sensed/net_point",
@@ -54,6 +55,7 @@ TOPIC_TYPES: dict[str, str] = {
     "true_measurement": "tethernet_msgs/msg/Measurement",     # sim_node -> sensor_node
     "measurement": "tethernet_msgs/msg/Measurement",          # sensor_node -> controller
     "closing_decision": "tethernet_msgs/msg/ClosingDecision", # controller -> sim_node
+    "launch_decision": "tethernet_msgs/msg/LaunchDecision",   # controller -> sim_node
     "sensed_target_pose": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "sensed_target_twist": "geometry_msgs/msg/TwistWithCovarianceStamped",
     "sensed_net_point": "geometry_msgs/msg/PointStamped",
@@ -85,8 +87,11 @@ REQUIRED_PUBLISHERS = ("launch_command", "closing_command", "net_state", "metric
 #: commands (it builds the episode's sensor from them), the sensor node and the recorder on
 #: the truth, a controller (the actuator's built-in policy or a user's node) and the
 #: recorder on the sensed measurement, the simulation and the recorder on the decisions
+#: (a launch decision's publisher is needed only while a launch waits: a controller of
+#: closing alone never sees a measurement before the launch)
 LOCKSTEP_SUBSCRIBERS = {"setup": 5, "launch_command": 4, "closing_command": 4,
-                        "true_measurement": 2, "measurement": 2, "closing_decision": 2}
+                        "true_measurement": 2, "measurement": 2, "closing_decision": 2,
+                        "launch_decision": 2}
 LOCKSTEP_PUBLISHERS = ("true_measurement", "measurement", "closing_decision")
 #: the topic whose publisher's liveliness shows each node of the suite alive, and that
 #: node: the capture node aborts an episode at once when one of them is gone
@@ -96,7 +101,8 @@ WATCHED = {"net_state": "sim_node", "metrics": "monitor_node",
 #: topics every bag holds, whatever ``record_topics`` says (replay needs them; the loop's
 #: topics are silent unless an episode runs in lockstep)
 ALWAYS_RECORDED = ("setup", "launch_command", "closing_command", "net_state", "metrics",
-                   "result", "verdict", "true_measurement", "measurement", "closing_decision")
+                   "result", "verdict", "true_measurement", "measurement", "closing_decision",
+                   "launch_decision")
 #: latched topics (transient-local, depth 1, qos.latched_qos): a late subscriber gets the last
 LATCHED = ("result", "verdict")
 #: recorded topics whose messages carry the simulated time of a state (header stamp) and go

@@ -116,6 +116,11 @@ def decide_launch(model, meas, age) -> bool:
                                 lm.window_end) <= lm.cos_limit
 
 
+@njit(cache=True, error_model='numpy')
+def decide_launch_one(model, meas, age) -> bool:
+    return decide_launch(model, meas, age)
+
+
 @njit(cache=True, inline='always', error_model='numpy')
 def _drift_untouched(model, data, scr, l):
     """One step of lane l's target alone, as the flight's step moves an untouched target."""

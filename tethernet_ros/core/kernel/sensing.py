@@ -175,6 +175,13 @@ def buffer_measurement(ct, sd, l, out, step) -> int:
         sd.buf[slot, c, l] = out[c]
     sd.taken[slot, l] = step
     sd.head[l] = (slot + 1) % sd.taken.shape[0]
+    return newest_slot(ct, sd, l, step)
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def newest_slot(ct, sd, l, step) -> int:
+    """The slot of lane l's newest measurement that the controller has at ``step`` (taken
+    at least the latency ago), or -1 if none has arrived yet."""
     best = -1
     best_step = -1
     for s in range(sd.taken.shape[0]):
@@ -194,8 +201,14 @@ def truth_of_lane(model, data, l):
 
 @njit(cache=True, error_model='numpy')
 def measure_one(ct, sd, truth, step):
+    """The sensed measurement (N_CHANNELS,) a one-lane sensor gives at ``step`` after the
+    true one taken then, then the step it was taken at; NaNs and -1 before the first has
+    arrived."""
     out = truth.copy()
     slot = buffer_measurement(ct, sd, 0, out, step)
-    if slot < 0:
-        return np.full(N_CHANNELS, np.nan)
-    return sd.buf[slot, :, 0].copy()
+    got = np.full(N_CHANNELS + 1, np.nan)
+    got[N_CHANNELS] = -1.0
+    if slot >= 0:
+        got[:N_CHANNELS] = sd.buf[slot, :, 0]
+        got[N_CHANNELS] = float(sd.taken[slot, 0])
+    return got

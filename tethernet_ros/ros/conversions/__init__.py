@@ -23,7 +23,8 @@ from .setup import (tumble_msg, tumble_from_msg, config_with_tumble, target_from
                     config_overrides, config_from_json, setup_msg, setup_from_msg)
 from .commands import launch_command_msg, closing_command_msg, commands_from_msgs
 from .states import net_state_msg, net_state_from_msg, target_pose_msg, clock_msg
-from .loop import measurement_msg, measurement_from_msg, decision_msg, sensed_msgs
+from .loop import (measurement_msg, measurement_from_msg, decision_msg, launch_decision_msg,
+                   sensed_msgs)
 from .results import (TERM_FIELDS, metrics_msg, metrics_from_cdr, terms_from_msg, episode_result_msg,
                       episode_result_from_msg)
 from .capture import Outcome, capture_reply, capture_feedback_msg, cancel_msg
@@ -35,6 +36,6 @@ __all__ = ["RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FI
            "config_from_json", "setup_msg", "setup_from_msg", "launch_command_msg",
            "closing_command_msg", "commands_from_msgs", "net_state_msg", "net_state_from_msg",
            "target_pose_msg", "clock_msg", "measurement_msg", "measurement_from_msg",
-           "decision_msg", "sensed_msgs", "TERM_FIELDS", "metrics_msg", "metrics_from_cdr",
+           "decision_msg", "launch_decision_msg", "sensed_msgs", "TERM_FIELDS", "metrics_msg", "metrics_from_cdr",
            "terms_from_msg", "episode_result_msg", "episode_result_from_msg", "Outcome",
            "capture_reply", "capture_feedback_msg", "cancel_msg"]

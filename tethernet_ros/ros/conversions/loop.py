@@ -1,5 +1,5 @@
-"""The closed loop: Measurement.msg, ClosingDecision.msg and the sensed common_interfaces
-messages."""
+"""The closed loop: Measurement.msg, ClosingDecision.msg, LaunchDecision.msg and the sensed
+common_interfaces messages."""
 from __future__ import annotations
 
 import math
@@ -10,9 +10,12 @@ from .stamps import set_time
 
 
 def measurement_msg(values, step: int, sim_time: float, episode_id: str,
-                    closing_displacement: float, frame_id: str = "chaser"):
+                    closing_displacement: float, frame_id: str = "chaser",
+                    launched: bool = True, age: float = 0.0):
     """Measurement of a core measurement vector (``core.sensing``, N_CHANNELS; None: none
-    has reached the controller yet, ``valid`` false), taken at ``step`` (sim time s)."""
+    has reached the controller yet, ``valid`` false) at the control step ``step`` of the
+    mission's clock (sim time s), before the launch or after it (``launched``), its values
+    taken ``age`` s before."""
     from tethernet_msgs.msg import Measurement
 
     m = Measurement()
@@ -20,6 +23,8 @@ def measurement_msg(values, step: int, sim_time: float, episode_id: str,
     m.header.frame_id = frame_id
     m.episode_id = episode_id
     m.step = int(step)
+    m.launched = bool(launched)
+    m.age = float(age)
     m.closing_displacement = float(closing_displacement)
     m.valid = values is not None
     if values is None:
@@ -62,6 +67,20 @@ def decision_msg(measurement, close: bool, controller: str):
     m.episode_id = measurement.episode_id
     m.step = measurement.step
     m.close = bool(close)
+    m.controller = controller
+    return m
+
+
+def launch_decision_msg(measurement, launch: bool, controller: str):
+    """LaunchDecision answering a Measurement taken before the launch (same stamp, episode
+    and step)."""
+    from tethernet_msgs.msg import LaunchDecision
+
+    m = LaunchDecision()
+    m.header = measurement.header
+    m.episode_id = measurement.episode_id
+    m.step = measurement.step
+    m.launch = bool(launch)
     m.controller = controller
     return m
 
