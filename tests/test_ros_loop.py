@@ -37,6 +37,7 @@ from tethernet_ros.bags import read_bag  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.episode import RESULT_FIELDS, run_episode  # noqa: E402
+from tethernet_ros.core.launch import LaunchConfig  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
 from tethernet_ros.core.policies import PolicyConfig  # noqa: E402
 from tethernet_ros.core.scenario import world_for  # noqa: E402
@@ -46,7 +47,7 @@ from tethernet_ros.core.tumble import TumbleConfig  # noqa: E402
 from tethernet_ros.montecarlo import InProcessBackend, evaluate  # noqa: E402
 from tethernet_ros.ros import conversions as conv  # noqa: E402
 from tethernet_ros.ros.backend import CONTROLLER_FAILURE, RosBackend  # noqa: E402
-from tethernet_ros.ros.names import CONTROLLER_TIMEOUT, REJECTED, TOPICS  # noqa: E402
+from tethernet_ros.ros.names import ABORTED, CONTROLLER_TIMEOUT, REJECTED, TOPICS  # noqa: E402
 from tethernet_ros.ros.suite import RosSuite, node_parameters  # noqa: E402
 
 pytestmark = [pytest.mark.ros, pytest.mark.timeout(500)]
@@ -205,6 +206,67 @@ def test_bag_records_the_loop_and_replay_replays_it(threshold_capture):
     assert loop["sensed_recomputed"] == loop["decisions_recomputed"] == len(truths)
     assert loop["sensed_mismatches"] == loop["decision_mismatches"] == 0
     assert loop["closing_step"] == decisions[-1].step and rep["ok"]
+
+
+def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite):
+    """The launch decided through ROS (docs/ros.md, the controller contract): before the
+    net leaves, sim_node publishes the truth of the stowed net and the turning target at
+    every control step, sensor_node senses it, actuator_node's built-in predictive policy
+    answers LaunchDecisions; the result is run_episode's bit for bit, launch time
+    included, and replay finds and replays the decisions."""
+    tumble = TumbleConfig(rate_deg_s=2.0, axis="flat")
+    launch = LaunchConfig(kind="predictive", max_wait=120.0)
+    ref = run_episode(DESIGN, NOISE.sample(SEED), CONFIG.replace(tumble=tumble, launch=launch),
+                      record_trace=False)
+    assert ref.launch_time > 1.0
+    result, bag = suite.capture(DESIGN, SEED, tumble=tumble, launch=launch,
+                                bag_name="loop_launch")
+    assert_same_result(result, ref)
+    msgs = {}
+    for m in read_bag(bag).messages:
+        msgs.setdefault(m.topic, []).append(m.msg)
+    fired = msgs[TOPICS["launch_decision"]]
+    assert [d.launch for d in fired] == [False] * (len(fired) - 1) + [True]
+    assert fired[-1].step * 1e-3 == pytest.approx(ref.launch_time, abs=1e-12)
+    assert "(built-in predictive)" in fired[0].controller
+    sensed = msgs[TOPICS["measurement"]]
+    assert [m.launched for m in sensed[:len(fired)]] == [False] * len(fired)
+    assert all(m.launched for m in sensed[len(fired):])
+    assert [m.age for m in sensed[3:6]] == [0.06] * 3            # the latency: 3 periods
+    out = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "replay", str(bag), "--json"],
+                         capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    loop = json.loads(out.stdout)["loop"]
+    assert loop["launch_decisions"] == len(fired) and loop["launch_step"] == fired[-1].step
+    assert loop["decisions_recomputed"] == len(msgs[TOPICS["true_measurement"]])
+    assert loop["sensed_mismatches"] == loop["decision_mismatches"] == 0
+
+
+def test_bad_launch_requests_are_refused_and_an_unanswered_launch_fails(suite):
+    """A bad max_wait or policy is REJECTED naming the field; a launch left to a
+    controller that never answers (policy 'external', no controller of launches) fails
+    with the reason, and the suite serves the next request."""
+    for fields, words in (({"launch_policy": "predictive", "launch_max_wait": -1.0},
+                           r"^launch_max_wait: got -1\.0; must be a time in \[0, 3600\] s"),
+                          ({"launch_policy": "predictive", "launch_max_wait": 1e9},
+                           r"^launch_max_wait: got 1000000000\.0; must be a time in"),
+                          ({"launch_policy": "eager", "launch_max_wait": 10.0},
+                           r"^launch_policy: got 'eager'; must be one of immediate, predictive")):
+        req = suite.request(DESIGN, 3, record_bag=False)
+        req.set_launch = True
+        for k, v in fields.items():
+            setattr(req, k, v)
+        resp = suite.call(req, timeout=60)
+        assert resp.status == REJECTED
+        assert re.match(words, resp.error), resp.error
+    req = suite.request(DESIGN, 3, record_bag=False, tumble=TumbleConfig(rate_deg_s=2.0),
+                        launch=LaunchConfig(kind="external"))
+    resp = suite.call(req, timeout=120)
+    assert resp.status == ABORTED
+    assert resp.error.startswith(CONTROLLER_TIMEOUT) and "no LaunchDecision" in resp.error
+    result, _ = suite.capture(DESIGN, SEED, record_bag=False)
+    assert_same_result(result, run_episode(DESIGN, NOISE.sample(SEED), CONFIG,
+                                           record_trace=False))
 
 
 def test_two_deciders_abort_the_episode_and_replay_flags_them(suite, tmp_path):

@@ -10,6 +10,7 @@ apply to it unchanged.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -29,7 +30,10 @@ class StateMirror:
     def __init__(self, design: Design, actions: Actions, world: World, config: SimConfig):
         self.design = design
         self.config = config
-        self.sim = CaptureSimulation(build_scenario(design, actions, world, config))
+        # (never advanced: its launch is left to the states it loads, not waited for)
+        mirror = config if config.launch.kind in ("immediate", "external") else \
+            config.replace(launch=replace(config.launch, kind="external"))
+        self.sim = CaptureSimulation(build_scenario(design, actions, world, mirror))
         # run_simulation tests for divergence at its clock's steps (and at the end step); a
         # verdict on divergence is taken at those steps only, as there
         self.check_every = EpisodeClock(config, self.sim.dt).chunk
@@ -55,9 +59,14 @@ class StateMirror:
         t.vel[:] = st.target_velocity
         t.omega[:] = st.target_omega
         ring.locked[:] = st.locked
-        s.events[kn.E_STEP] = st.step
+        # the state's step and closing time are on the mission's clock; the episode's
+        # rules count the flight's steps (docs/model.md §16)
+        launch = int(getattr(st, "launch_step", 0))
+        s.events[kn.E_LAUNCH_STEP] = launch
+        s.events[kn.E_LAUNCHED] = 1
+        s.events[kn.E_STEP] = st.step - launch
         s.events[kn.E_CLOSING_ACTIVE] = 1 if st.closing_active else 0
-        s.events[kn.E_CLOSING_STEP] = int(round(st.closing_start_time / self.sim.dt)) \
+        s.events[kn.E_CLOSING_STEP] = int(round(st.closing_start_time / self.sim.dt)) - launch \
             if st.closing_active else -1
 
     def terms(self) -> CQITerms | None:

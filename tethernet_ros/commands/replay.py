@@ -6,10 +6,11 @@ and the core's CQI function, locked-pair count and verdict rules are applied.  T
 results are compared with the recorded CaptureMetrics, the simulation's EpisodeResult and
 the monitor's verdict.  A lockstep episode's loop is replayed too: the core's Sensor,
 seeded as the sensor node's, turns every recorded true measurement into the sensed one,
-which must be the recorded one bit for bit; the built-in policy (``Policy``) decides on
-every recorded sensed measurement as the actuator did, and must give the recorded
-decisions (a user's controller's are counted, not recomputed); and the episode's closing
-time must be the step of the first decision to close; decisions from two nodes (two
+which must be the recorded one bit for bit; the built-in policies (``Policy``, and
+``LaunchPolicy`` before the launch) decide on every recorded sensed measurement as the
+actuator did, and must give the recorded decisions (a user's controller's are counted,
+not recomputed); the episode's launch time must be the step of the first decision to
+fire, and its closing time the step of the first decision to close; decisions from two nodes (two
 controller names, or a control step decided twice) are reported as two deciders.  Messages of the types replay does
 not use (markers, target poses, /clock, the sensed state in standard messages) are
 skipped and counted per topic.  A truncated or corrupted bag is read up
@@ -34,9 +35,10 @@ METRICS = "tethernet_msgs/msg/CaptureMetrics"
 RESULT = "tethernet_msgs/msg/EpisodeResult"
 MEASUREMENT = "tethernet_msgs/msg/Measurement"
 DECISION = "tethernet_msgs/msg/ClosingDecision"
+LAUNCH_DECISION = "tethernet_msgs/msg/LaunchDecision"
 #: the types replay reads; the messages of every other type (markers, poses, /clock, the
 #: sensed state in standard messages) are skipped and counted per topic
-USED = {SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT, MEASUREMENT, DECISION}
+USED = {SETUP, LAUNCH, CLOSING, STATE, METRICS, RESULT, MEASUREMENT, DECISION, LAUNCH_DECISION}
 
 
 def add_arguments(p):
@@ -83,6 +85,7 @@ def replay(path) -> dict:
     truths = decoded(MEASUREMENT, TOPICS["true_measurement"])
     sensed = decoded(MEASUREMENT, TOPICS["measurement"])
     decisions = decoded(DECISION)
+    launch_decisions = decoded(LAUNCH_DECISION)
     states = sorted(decoded(STATE), key=lambda m: m.step)
     metrics = decoded(METRICS)
     results = [m for m in contents.messages if m.msgtype == RESULT and m.msg is not None]
@@ -140,9 +143,10 @@ def replay(path) -> dict:
         if compared and (max_diff != 0.0 or n_l_mismatch):
             problems.append(f"recorded metrics differ from the recomputed ones (max |dCQI| = "
                             f"{max_diff:.3g}, {n_l_mismatch} n_L mismatches)")
-    if truths or sensed or decisions:
+    if truths or sensed or decisions or launch_decisions:
         try:
             report["loop"] = _replay_loop(setup, actions, world, truths, sensed, decisions,
+                                          launch_decisions,
                                           sim_results[-1] if sim_results else None, problems)
         except Exception as exc:  # noqa: BLE001 - a bag's content is reported, not raised
             problems.append(f"cannot replay the closing loop: {exc}")
@@ -164,11 +168,30 @@ def replay(path) -> dict:
     return report
 
 
-def _replay_loop(setup, actions, world, truths, sensed, decisions, result, problems) -> dict:
+def _two_deciders(decisions, what: str, problems) -> list[str]:
+    """The controllers named in ``decisions`` (one kind); two names, or two decisions for
+    one control step, are two nodes answering: a problem is appended."""
+    controllers = sorted({d.controller for d in decisions})
+    per_step = {}
+    for d in decisions:
+        per_step[int(d.step)] = per_step.get(int(d.step), 0) + 1
+    doubled = sorted(step for step, n in per_step.items() if n > 1)
+    if len(controllers) > 1 or doubled:
+        problems.append(
+            f"two deciders: {len(decisions)} {what} for {len(per_step)} control steps"
+            + (f" from {', '.join(repr(c) for c in controllers)}" if len(controllers) > 1 else "")
+            + (f"; {len(doubled)} steps decided more than once (first: step {doubled[0]})"
+               if doubled else "")
+            + " (the controller contract allows one node to decide)")
+    return controllers
+
+
+def _replay_loop(setup, actions, world, truths, sensed, decisions, launch_decisions, result,
+                 problems) -> dict:
     """Replay a lockstep episode's loop (module docstring); problems are appended."""
     from ..ros import conversions as conv
-    from ..ros.loop import episode_policy, episode_scenario, episode_sensor, \
-        is_builtin_controller
+    from ..ros.loop import episode_launch_policy, episode_policy, episode_scenario, \
+        episode_sensor, is_builtin_controller
 
     def by_step(msgs):
         out = {}
@@ -177,33 +200,31 @@ def _replay_loop(setup, actions, world, truths, sensed, decisions, result, probl
         return out
 
     truth_at, sensed_at, decided_at = by_step(truths), by_step(sensed), by_step(decisions)
-    controllers = sorted({d.controller for d in decisions})
-    # one decider per episode (docs/ros.md, the controller contract): two names, or two
-    # decisions for one control step, are two nodes answering
-    per_step = {}
-    for d in decisions:
-        per_step[int(d.step)] = per_step.get(int(d.step), 0) + 1
-    doubled = sorted(step for step, n in per_step.items() if n > 1)
-    if len(controllers) > 1 or doubled:
-        problems.append(
-            f"two deciders: {len(decisions)} decisions for {len(per_step)} control steps"
-            + (f" from {', '.join(repr(c) for c in controllers)}" if len(controllers) > 1 else "")
-            + (f"; {len(doubled)} steps decided more than once (first: step {doubled[0]})"
-               if doubled else "")
-            + " (the controller contract allows one node to decide)")
+    launch_at = by_step(launch_decisions)
+    # one decider of each kind per episode (docs/ros.md, the controller contract)
+    controllers = _two_deciders(decisions, "decisions", problems)
+    launch_controllers = _two_deciders(launch_decisions, "launch decisions", problems)
     loop = {"true_measurements": len(truths), "measurements": len(sensed),
             "decisions": len(decisions), "controllers": controllers,
+            "launch_decisions": len(launch_decisions), "launch_controllers": launch_controllers,
             "sensed_recomputed": 0, "sensed_mismatches": 0,
-            "decisions_recomputed": 0, "decision_mismatches": 0, "closing_step": None}
+            "decisions_recomputed": 0, "decision_mismatches": 0, "closing_step": None,
+            "launch_step": None}
     closes = sorted(step for step, d in decided_at.items() if d.close)
     if closes:
         loop["closing_step"] = closes[0]
+    fires = sorted(step for step, d in launch_at.items() if d.launch)
+    if fires:
+        loop["launch_step"] = fires[0]
     if setup is None or actions is None:
         return loop
     scenario = episode_scenario(setup, actions, world)
     sensor = episode_sensor(setup, scenario)
     builtin = bool(decisions) and all(is_builtin_controller(c) for c in controllers)
     policy = episode_policy(setup, scenario) if builtin else None
+    builtin_launch = bool(launch_decisions) and all(is_builtin_controller(c)
+                                                    for c in launch_controllers)
+    launch_policy = episode_launch_policy(setup, scenario) if builtin_launch else None
     first_bad = None
 
     def same(a, b) -> bool:
@@ -225,15 +246,27 @@ def _replay_loop(setup, actions, world, truths, sensed, decisions, result, probl
             loop["decisions_recomputed"] += 1
             if close != bool(decided_at[step].close):
                 loop["decision_mismatches"] += 1
+        if launch_policy is not None and step in launch_at:
+            fire = recorded is not None and launch_policy.decide(
+                recorded, (step - sensor.taken) * scenario.dt)
+            loop["decisions_recomputed"] += 1
+            if fire != bool(launch_at[step].launch):
+                loop["decision_mismatches"] += 1
     if loop["sensed_mismatches"]:
         problems.append(f"{loop['sensed_mismatches']} recorded sensed measurements differ from "
                         f"the sensor's replay (first at step {first_bad})")
     if loop["decision_mismatches"]:
         problems.append(f"{loop['decision_mismatches']} recorded decisions differ from the "
                         "built-in policy's replay")
-    if len(decided_at) < len(truth_at) and not (result is not None and result.failure_reason):
+    if len(decided_at) + len(launch_at) < len(truth_at) \
+            and not (result is not None and result.failure_reason):
         problems.append(f"{len(truth_at) - len(decided_at)} control steps have no recorded "
                         "decision")
+    if result is not None and fires:
+        lt = getattr(result, "launch_time", math.nan)
+        if lt == lt and lt != fires[0] * scenario.dt:
+            problems.append(f"the launch time {lt} s is not the first decision to fire "
+                            f"(step {fires[0]}, t = {fires[0] * scenario.dt} s)")
     if result is not None and closes:
         ct = result.closing_time
         if ct >= 0 and ct != closes[0] * scenario.dt:
@@ -290,6 +323,10 @@ def run(args) -> int:
                      f"{loop['measurements']} sensed measurements, {loop['decisions']} decisions "
                      f"({', '.join(loop['controllers']) or 'none'}); first to close at step "
                      f"{loop['closing_step']}")
+        if loop["launch_decisions"]:
+            lines.append(f"  launch            {loop['launch_decisions']} decisions "
+                         f"({', '.join(loop['launch_controllers'])}); fired at step "
+                         f"{loop['launch_step']}")
         lines.append(f"                    sensor replayed on {loop['sensed_recomputed']}: "
                      f"{loop['sensed_mismatches']} mismatches; policy replayed on "
                      f"{loop['decisions_recomputed']}: {loop['decision_mismatches']} mismatches")

@@ -400,9 +400,10 @@ def planned_window(design: Design, config: SimConfig) -> tuple[float, float]:
     launch policy predicts over: from when the net's centre of mass reaches the target's
     centre to the end of closing (the closing policy's ``closing_time`` after it starts),
     in the nominal episode: no noise, the target at rest, ideal sensing, the source's
-    threshold trigger, fired at once (its flight only, up to closing).  This is what the chaser plans from its own design;
-    the net slows as it spreads, so a constant speed from the launch momentum comes 7-24 %
-    early on the reference designs (docs/model.md §16).  Once per design and
+    threshold trigger, fired at once (its flight only, up to closing).  This is what the
+    chaser plans from its own design; the net slows as it spreads, so a constant speed
+    from the launch momentum comes 7-24 % early on the reference designs (docs/model.md
+    §16).  Once per design and
     configuration in a process."""
     plan = config.replace(launch=LaunchConfig(), tumble=TumbleConfig(),
                           sensing=SensingConfig(), state_rate=0.0,

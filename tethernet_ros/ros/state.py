@@ -81,6 +81,7 @@ class StateArrays:
     locked: np.ndarray          # (12,) bool
     num_net_nodes: int = 0
     num_corner_masses: int = 0
+    launch_step: int = 0        # steps waited before the launch (``step`` includes them)
 
 
 def state_arrays(sim) -> StateArrays:
@@ -89,7 +90,8 @@ def state_arrays(sim) -> StateArrays:
     b, t = s.bodies, s.target_body
     ct = sim.closing_time
     return StateArrays(
-        step=sim.step, sim_time=sim.time,
+        step=sim.launch_step + sim.step, sim_time=sim.time,     # the mission's clock
+        launch_step=sim.launch_step,
         positions=np.array(b.x, dtype=float), velocities=np.array(b.v, dtype=float),
         target_position=np.array(t.pos, dtype=float),
         target_quaternion=np.array(t.quat, dtype=float),

@@ -379,10 +379,12 @@ class RosSuite:
     # -- requests ------------------------------------------------------------------------
     def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None, tumble=None,
-                target: str = "", target_mass: float = 0.0):
+                target: str = "", target_mass: float = 0.0, launch=None):
         """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
         episode (None: the suite's configuration's); ``target``: a catalogue name or mesh
-        file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's)."""
+        file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's);
+        ``launch`` (a LaunchConfig): its launch policy and max_wait (None: the suite's
+        configuration's)."""
         from tethernet_msgs.srv import RunCapture
 
         req = RunCapture.Request()
@@ -396,6 +398,9 @@ class RosSuite:
             req.set_tumble = True
             req.tumble = conv.tumble_msg(tumble)
         req.target, req.target_mass = str(target), float(target_mass)
+        if launch is not None:
+            req.set_launch = True
+            req.launch_policy, req.launch_max_wait = launch.kind, float(launch.max_wait)
         return req
 
     def set_parameters(self, node: str, values: dict, timeout: float = 10.0) -> list[str]:
@@ -470,9 +475,9 @@ class RosSuite:
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,
                 timeout: float = 900.0, tumble=None, target: str = "",
-                target_mass: float = 0.0) -> tuple[EpisodeResult, str | None]:
+                target_mass: float = 0.0, launch=None) -> tuple[EpisodeResult, str | None]:
         resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble,
-                                      target, target_mass), timeout)
+                                      target, target_mass, launch), timeout)
         if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.status != SUCCEEDED:

@@ -50,12 +50,34 @@ def tumble_from_msg(m, prefix: str = "tumble") -> TumbleConfig:
 
 def config_with_tumble(config: SimConfig, request) -> SimConfig:
     """The episode's SimConfig: ``config`` with the request's tumble where it sets one
-    (``set_tumble``) and its target where it names one; RequestError names a bad tumble
-    or target field."""
+    (``set_tumble``), its launch where it sets one (``set_launch``) and its target where
+    it names one; RequestError names a bad tumble, launch or target field."""
     if getattr(request, "set_tumble", False):
         config = config.replace(tumble=tumble_from_msg(request.tumble))
+    launch = launch_from_request(request, config.launch)
+    if launch is not None:
+        config = config.replace(launch=launch)
     target = target_from_request(request)
     return config if target is None else config.replace(target=target)
+
+
+def launch_from_request(request, base=None):
+    """The LaunchConfig a request sets (``set_launch``: ``launch_policy`` and
+    ``launch_max_wait`` over ``base``'s other settings; None: the configured launch);
+    RequestError names the bad field and its range."""
+    from dataclasses import replace
+
+    from ...core.launch import LaunchConfig, LaunchError
+
+    if not getattr(request, "set_launch", False):
+        return None
+    try:
+        return replace(base or LaunchConfig(), kind=str(request.launch_policy),
+                       max_wait=float(request.launch_max_wait))
+    except LaunchError as exc:
+        text = str(exc)
+        field = "launch_max_wait" if "'max_wait'" in text else "launch_policy"
+        raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
 
 
 def target_from_request(request):

@@ -21,6 +21,7 @@ def net_state_msg(state: StateArrays, frame_id: str = "chaser"):
     m.header.frame_id = frame_id
     m.sim_time = state.sim_time
     m.step = state.step
+    m.launch_step = int(state.launch_step)
     m.positions = array.array("d", np.ascontiguousarray(state.positions).tobytes())
     m.velocities = array.array("d", np.ascontiguousarray(state.velocities).tobytes())
     m.num_net_nodes = state.num_net_nodes
@@ -50,7 +51,8 @@ def net_state_from_msg(m) -> StateArrays:
         target_velocity=_vec(m.target_twist.linear), target_omega=_vec(m.target_twist.angular),
         closing_active=bool(m.closing_active), closing_start_time=float(m.closing_start_time),
         locked=np.array([bool(v) for v in m.locked], dtype=bool),
-        num_net_nodes=int(m.num_net_nodes), num_corner_masses=int(m.num_corner_masses))
+        num_net_nodes=int(m.num_net_nodes), num_corner_masses=int(m.num_corner_masses),
+        launch_step=int(getattr(m, "launch_step", 0)))
 
 
 def target_pose_msg(state: StateArrays, frame_id: str = "chaser"):

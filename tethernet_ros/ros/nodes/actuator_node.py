@@ -5,8 +5,9 @@ Subscribes  EpisodeSetup; the sensed Measurement (``builtin_policy`` only).
 Publishes   LaunchCommand (noisy corner-mass launch velocities, the target placement and
             tumble of the same draw, and the draw itself with its spreads) and
             ClosingCommand (noisy closing displacement), both stamped with the setup's
-            stamp, before the simulation starts; in lockstep episodes a ClosingDecision
-            for every Measurement (``builtin_policy`` only).
+            stamp, before the simulation starts; in lockstep episodes a LaunchDecision
+            for every Measurement before the launch and a ClosingDecision for every one
+            after it (``builtin_policy`` only).
 
 The noise is drawn by the core's single sampler, ``NoiseModel.sample(seed)``, with the
 spreads of this node's ``noise.*`` parameters and the setup's scale factors; the draw is
@@ -24,7 +25,8 @@ from rclpy.node import Node
 
 from ...core.scenario import actions_for, world_for
 from .. import conversions as conv
-from ..loop import builtin_controller, episode_policy, episode_scenario, runs_in_lockstep
+from ..loop import (builtin_controller, episode_launch_policy, episode_policy, episode_scenario,
+                    runs_in_lockstep)
 from ..parameters import declare, node_spreads, param, topic
 from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
@@ -35,7 +37,7 @@ NODE = "actuator_node"
 class ActuatorNode(Node):
     def __init__(self):
         from tethernet_msgs.msg import ClosingCommand, ClosingDecision, EpisodeSetup, \
-            LaunchCommand, Measurement
+            LaunchCommand, LaunchDecision, Measurement
 
         super().__init__(NODE)
         declare(self, NODE)
@@ -46,12 +48,15 @@ class ActuatorNode(Node):
         self.pub_closing = self.create_publisher(ClosingCommand, t("closing_command"), cq)
         self.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
         self.builtin = bool(param(self, "builtin_policy"))
-        self.pub_decision = None
-        self.episode = None            # (episode id, Policy or None, its name)
+        self.pub_decision = self.pub_launch_decision = None
+        # (episode id, Policy or None, its name, LaunchPolicy or None, its name)
+        self.episode = None
         if self.builtin:
             self._warm_up()
             sq = state_qos()
             self.pub_decision = self.create_publisher(ClosingDecision, t("closing_decision"), sq)
+            self.pub_launch_decision = self.create_publisher(LaunchDecision,
+                                                             t("launch_decision"), sq)
             self.create_subscription(Measurement, t("measurement"), self.on_measurement, sq)
         self.get_logger().info("ready" + ("" if self.builtin else
                                           " (no built-in policy: another node decides)"))
@@ -77,20 +82,25 @@ class ActuatorNode(Node):
             sample = None if model is None else model.sample(setup.seed)
             actions = actions_for(setup.design, sample)
             world = world_for(setup.design, sample, setup.config.tumble)
-            policy, name = None, ""
+            policy, name, launch_policy, launch_name = None, "", None, ""
             if self.builtin and runs_in_lockstep(setup):
-                policy = episode_policy(setup, episode_scenario(setup, actions, world))
+                scenario = episode_scenario(setup, actions, world)
+                policy = episode_policy(setup, scenario)
                 name = builtin_controller(self.get_name(), setup.config.policy.kind)
+                launch_policy = episode_launch_policy(setup, scenario)
+                launch_name = builtin_controller(self.get_name(), setup.config.launch.kind)
         except Exception as exc:  # noqa: BLE001 - logged; the episode never starts
             log.error(f"episode {msg.episode_id!r} rejected: {exc}")
             return
-        self.episode = (setup.episode_id, policy, name)
+        self.episode = (setup.episode_id, policy, name, launch_policy, launch_name)
         frame = param(self, "frame_id")
         n = int(param(self, "min_command_subscribers"))
         timeout = float(param(self, "match_timeout"))
         pubs = [(self.pub_launch, n), (self.pub_closing, n)]
         if policy is not None:
             pubs.append((self.pub_decision, 0))      # (every one the graph shows)
+        if launch_policy is not None:
+            pubs.append((self.pub_launch_decision, 0))
         for pub, least in pubs:
             want = max(least, self.count_subscribers(pub.topic_name))
             if not wait_for_subscribers(pub, want, timeout, self.context):
@@ -101,14 +111,25 @@ class ActuatorNode(Node):
         self.pub_closing.publish(conv.closing_command_msg(actions, setup.stamp, frame))
         log.info(f"episode {setup.episode_id!r}: commands sent "
                  f"({'nominal' if sample is None else f'seed {setup.seed}'})"
-                 + (f"; closing policy {setup.config.policy.kind}" if policy is not None else ""))
+                 + (f"; closing policy {setup.config.policy.kind}" if policy is not None else "")
+                 + (f"; launch policy {setup.config.launch.kind}" if launch_policy is not None
+                    else ""))
 
     def on_measurement(self, msg) -> None:
-        """Answer a measurement of the current lockstep episode with the policy's decision."""
-        if self.episode is None or msg.episode_id != self.episode[0] or self.episode[1] is None:
-            return                       # not ours to answer (a user's controller decides)
-        _, policy, name = self.episode
+        """Answer a measurement of the current lockstep episode with the policy's decision:
+        before the launch the launch policy's, after it the closing policy's."""
+        if self.episode is None or msg.episode_id != self.episode[0]:
+            return
+        _, policy, name, launch_policy, launch_name = self.episode
         values = conv.measurement_from_msg(msg)
+        if not msg.launched:
+            if launch_policy is None:
+                return                   # not ours to answer (a user's controller decides)
+            fire = values is not None and launch_policy.decide(values, msg.age)
+            self.pub_launch_decision.publish(conv.launch_decision_msg(msg, fire, launch_name))
+            return
+        if policy is None:
+            return
         close = values is not None and policy.decide(values)
         self.pub_decision.publish(conv.decision_msg(msg, close, name))
 

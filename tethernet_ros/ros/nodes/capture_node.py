@@ -61,7 +61,7 @@ NODE = "capture_node"
 STATE_DEPTH = 1000
 #: topics recorded with the states' QoS (the rest: the commands' QoS)
 STATE_TOPICS = ("net_state", "target_pose", "markers", "metrics", "clock", "true_measurement",
-                "measurement", "closing_decision", "sensed_target_pose",
+                "measurement", "closing_decision", "launch_decision", "sensed_target_pose",
                 "sensed_target_twist", "sensed_net_point")
 SHUTDOWN = "the capture node shut down during the episode (SIGINT or SIGTERM)"
 CANCELED_TEXT = "canceled by the client"
@@ -209,6 +209,7 @@ class CaptureNode(Node):
         if getattr(request, "set_tumble", False):
             conv.tumble_from_msg(request.tumble)
         conv.target_from_request(request)
+        conv.launch_from_request(request)
         name = request.bag_name
         if name:
             try:

@@ -53,6 +53,7 @@ class SensorNode(Node):
         self.pub_point = self.create_publisher(PointStamped, t("sensed_net_point"), sq)
         self.setup = None
         self.sensor = None
+        self.dt = 0.0
         self.commands = CommandBuffer()
         self.pending: deque = deque(maxlen=MAX_PENDING)
         self.create_subscription(EpisodeSetup, t("setup"), self.on_setup, cq)
@@ -100,7 +101,9 @@ class SensorNode(Node):
             return
         try:
             actions, world = conv.commands_from_msgs(launch, closing)
-            self.sensor = episode_sensor(setup, episode_scenario(setup, actions, world))
+            scenario = episode_scenario(setup, actions, world)
+            self.sensor = episode_sensor(setup, scenario)
+            self.dt = scenario.dt
         except Exception as exc:  # noqa: BLE001
             self.get_logger().error(f"episode {setup.episode_id!r}: {exc}")
             return
@@ -129,8 +132,10 @@ class SensorNode(Node):
         truth = conv.measurement_from_msg(msg)
         sim_time = conv.time_from_msg(msg.header.stamp)
         sensed = self.sensor.measure(truth, int(msg.step))
+        age = 0.0 if sensed is None else (int(msg.step) - self.sensor.taken) * self.dt
         out = conv.measurement_msg(sensed, msg.step, sim_time, msg.episode_id,
-                                   msg.closing_displacement, self.frame_id)
+                                   msg.closing_displacement, self.frame_id,
+                                   launched=msg.launched, age=age)
         out.header.stamp = msg.header.stamp           # exactly the truth's stamp
         # the measurement first: the controller, and so the simulation, waits for it; the
         # standard messages are for viewers and the bag (docs/ros.md, what lockstep costs)

@@ -58,7 +58,7 @@ NODE = "sim_node"
 class SimNode(Node):
     def __init__(self):
         from tethernet_msgs.msg import ClosingCommand, ClosingDecision, EpisodeResult, \
-            EpisodeSetup, LaunchCommand, Measurement, NetState
+            EpisodeSetup, LaunchCommand, LaunchDecision, Measurement, NetState
         from geometry_msgs.msg import PoseStamped
         from rosgraph_msgs.msg import Clock
         from std_msgs.msg import String
@@ -88,18 +88,19 @@ class SimNode(Node):
         self.pub_result = node.create_publisher(EpisodeResult, t("result"), latched_qos())
         self.pub_truth = node.create_publisher(Measurement, t("true_measurement"), sq)
         self._lock = threading.Lock()
-        # the decision a lockstep episode waits for: (episode id, step), and its answer
-        self._awaiting: tuple[str, int] | None = None
+        # the decision a lockstep episode waits for: (episode id, step, kind: 'launch' or
+        # 'closing'), and its answer
+        self._awaiting: tuple[str, int, str] | None = None
         self._answer = None
         self._answered = threading.Event()
         # the lockstep episode whose decisions are heard, the controllers they name and
-        # the control steps decided (one decider is allowed: a second name, or a step
-        # decided twice, is a second node answering; rclpy's message info does not
-        # carry the publisher)
+        # the control steps decided, per kind of decision (one decider of each kind is
+        # allowed: a second name, or a step decided twice, is a second node answering;
+        # rclpy's message info does not carry the publisher)
         self._loop_episode: str | None = None
-        self._deciders: set[str] = set()
-        self._decided: set[int] = set()
-        self._twice: int | None = None       # the first step decided twice
+        self._deciders: dict[str, set[str]] = {}
+        self._decided: set[tuple[str, int]] = set()
+        self._twice: tuple[str, int] | None = None     # the first step decided twice
         self._setup = None
         self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
@@ -112,6 +113,8 @@ class SimNode(Node):
         node.create_subscription(String, t("cancel"), self.on_cancel, cq)
         self.sub_decision = node.create_subscription(ClosingDecision, t("closing_decision"),
                                                      self.on_decision, sq)
+        self.sub_launch_decision = node.create_subscription(
+            LaunchDecision, t("launch_decision"), self.on_launch_decision, sq)
         node.get_logger().info("ready")
 
     # -- parameters read at each episode (they may be changed between episodes) ----------
@@ -164,21 +167,30 @@ class SimNode(Node):
                 self._running[1].set()
 
     def on_decision(self, msg) -> None:
-        """The controller's ClosingDecision: the answer if it is the one awaited.  A
-        decision of another episode (a stale one) is ignored; one of this episode from a
-        second decider ends the episode (:class:`..loop.ControllerConflict`)."""
+        """The controller's ClosingDecision (:meth:`_heard`)."""
+        self._heard(msg, "closing")
+
+    def on_launch_decision(self, msg) -> None:
+        """The controller's LaunchDecision (:meth:`_heard`)."""
+        self._heard(msg, "launch")
+
+    def _heard(self, msg, kind: str) -> None:
+        """A decision of ``kind``: the answer if it is the one awaited.  A decision of
+        another episode (a stale one) is ignored; one of this episode from a second
+        decider of its kind ends the episode (:class:`..loop.ControllerConflict`)."""
         with self._lock:
             if msg.episode_id != self._loop_episode:
                 return
             step = int(msg.step)
-            self._deciders.add(msg.controller)
-            if step in self._decided and self._twice is None:
-                self._twice = step
-            self._decided.add(step)
-            if len(self._deciders) > 1 or self._twice is not None:
+            deciders = self._deciders.setdefault(kind, set())
+            deciders.add(msg.controller)
+            if (kind, step) in self._decided and self._twice is None:
+                self._twice = (kind, step)
+            self._decided.add((kind, step))
+            if len(deciders) > 1 or self._twice is not None:
                 self._answered.set()         # the episode thread reports the conflict
                 return
-            if self._awaiting == (msg.episode_id, step) and not self._answered.is_set():
+            if self._awaiting == (msg.episode_id, step, kind) and not self._answered.is_set():
                 self._answer = msg
                 self._answered.set()
 
@@ -279,7 +291,7 @@ class SimNode(Node):
         pubs = [self.pub_pose, self.pub_clock, self.pub_markers]
         if lockstep:
             pubs.append(self.pub_truth)
-            self._wait_for_controller(timeout)
+            self._wait_for_controller(timeout, not sim.launched)
         for pub in pubs:
             want = self.node.count_subscribers(pub.topic_name)
             if want and not wait_for_subscribers(pub, want, timeout, self.context):
@@ -290,6 +302,8 @@ class SimNode(Node):
         try:
             sim.publish()                                   # the initial state
             try:
+                if lockstep:
+                    sim.wait_for_launch()       # (immediate: it has left already)
                 result = run_simulation(sim, record_trace=False)
                 if lockstep:
                     self._check_deciders()   # a second one heard after the last step
@@ -325,12 +339,19 @@ class SimNode(Node):
         """Raise ControllerConflict if a second decider was heard in this episode (another
         controller name, or a step decided twice)."""
         with self._lock:
-            deciders, twice = sorted(self._deciders), self._twice
-        if len(deciders) > 1 or twice is not None:
-            who = (f"{len(deciders)} controllers ({', '.join(repr(c) for c in deciders)})"
-                   if len(deciders) > 1 else f"step {twice} decided twice (by {deciders[0]!r})")
+            deciders = {k: sorted(v) for k, v in self._deciders.items()}
+            twice = self._twice
+        for kind, names in sorted(deciders.items()):
+            topic_name = (self.sub_decision if kind == "closing"
+                          else self.sub_launch_decision).topic_name
+            if len(names) > 1:
+                who = f"{len(names)} controllers ({', '.join(repr(c) for c in names)})"
+            elif twice is not None and twice[0] == kind:
+                who = f"step {twice[1]} decided twice (by {names[0]!r})"
+            else:
+                continue
             raise ControllerConflict(
-                f"{TWO_CONTROLLERS}: {who} on {self.sub_decision.topic_name} in this "
+                f"{TWO_CONTROLLERS}: {who} on {topic_name} in this "
                 "episode; the controller contract allows one decider (docs/ros.md): with "
                 "your own controller, start actuator_node with builtin_policy false")
 
@@ -349,20 +370,23 @@ class SimNode(Node):
         5 s on a loaded 2-core machine)."""
         frame = self.frame_id
         topic_name = self.sub_decision.topic_name
+        launch_topic = self.sub_launch_decision.topic_name
         answered_once = [False]
         last = [None]                        # monotonic time of the last decision heard
         with self._lock:
             self._loop_episode = episode_id
-            self._deciders, self._decided, self._twice = set(), set(), None
+            self._deciders, self._decided, self._twice = {}, set(), None
 
         def exchange(sim) -> bool:
             self._check_deciders()
             t_step = time.monotonic()
-            step, sim_time = sim.step, sim.time
+            launched = sim.launched
+            kind = "closing" if launched else "launch"
+            step, sim_time = sim.launch_step + sim.step, sim.time     # the mission's clock
             msg = conv.measurement_msg(truth_of(sim), step, sim_time, episode_id,
-                                       closing_displacement, frame)
+                                       closing_displacement, frame, launched=launched)
             with self._lock:
-                self._awaiting = (episode_id, step)
+                self._awaiting = (episode_id, step, kind)
                 self._answer = None
                 self._answered.clear()
 
@@ -380,9 +404,11 @@ class SimNode(Node):
                 if should_stop():
                     raise EpisodeAborted()
                 if time.monotonic() > deadline:
+                    what, where = (("ClosingDecision", topic_name) if launched else
+                                   ("LaunchDecision", launch_topic))
                     raise ControllerTimeout(
-                        f"{CONTROLLER_TIMEOUT} within {wait:g} s: no ClosingDecision on "
-                        f"{topic_name} for step {step} (t = {sim_time:.3f} s; is sensor_node "
+                        f"{CONTROLLER_TIMEOUT} within {wait:g} s: no {what} on "
+                        f"{where} for step {step} (t = {sim_time:.3f} s; is sensor_node "
                         "running, and a controller: actuator_node's built-in policy or yours?)")
             self._check_deciders()
             answered_once[0] = True
@@ -390,15 +416,17 @@ class SimNode(Node):
             if last[0] is not None:
                 times.append((now - last[0], now - t_step))
             last[0] = now
-            return bool(self._answer.close)
+            return bool(self._answer.close if launched else self._answer.launch)
 
         return exchange
 
-    def _wait_for_controller(self, timeout: float) -> None:
-        """Wait (``timeout`` s at most) until the decision topic has a publisher matched."""
+    def _wait_for_controller(self, timeout: float, launch: bool = False) -> None:
+        """Wait (``timeout`` s at most) until the decision topic has a publisher matched
+        (and the launch decision's too, when the episode's launch waits)."""
+        subs = [self.sub_decision] + ([self.sub_launch_decision] if launch else [])
         deadline = time.monotonic() + timeout
-        while self.sub_decision.get_publisher_count() < 1 and time.monotonic() < deadline \
-                and self.context.ok():
+        while any(s.get_publisher_count() < 1 for s in subs) \
+                and time.monotonic() < deadline and self.context.ok():
             time.sleep(0.01)
 
     def stopping(self) -> bool:
