@@ -402,7 +402,7 @@ def planned_window(design: Design, config: SimConfig) -> tuple[float, float]:
     in the nominal episode: no noise, the target at rest, ideal sensing, the source's
     threshold trigger, fired at once (its flight only, up to closing).  This is what the
     chaser plans from its own design; the net slows as it spreads, so a constant speed
-    from the launch momentum comes 7-24 % early on the reference designs (docs/model.md
+    from the launch momentum comes 6-19 % early on the reference designs (docs/model.md
     §16).  Once per design and
     configuration in a process."""
     plan = config.replace(launch=LaunchConfig(), tumble=TumbleConfig(),
