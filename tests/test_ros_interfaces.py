@@ -24,6 +24,7 @@ from tethernet_msgs.msg import (  # noqa: E402
     EpisodeResult,
     EpisodeSetup,
     LaunchCommand,
+    LaunchDecision,
     Measurement,
     NetState,
     NoiseSample,
@@ -43,7 +44,7 @@ N_BODIES = N_NET + N_CORNER + N_TETHER
 EXPECTED_FIELDS = {
     NetState: {
         "header": "std_msgs/Header", "sim_time": "double", "step": "uint32",
-        "positions": "sequence<double>", "velocities": "sequence<double>",
+        "launch_step": "uint32", "positions": "sequence<double>", "velocities": "sequence<double>",
         "num_net_nodes": "uint32", "num_corner_masses": "uint32", "num_tether_nodes": "uint32",
         "target_pose": "geometry_msgs/Pose", "target_twist": "geometry_msgs/Twist",
         "closing_active": "boolean", "closing_start_time": "double", "locked": "sequence<boolean>",
@@ -82,7 +83,8 @@ EXPECTED_FIELDS = {
         "spin_phase_range_deg": "double", "scales": "tethernet_msgs/NoiseSettings",
     },
     Measurement: {
-        "header": "std_msgs/Header", "episode_id": "string", "step": "uint32", "valid": "boolean",
+        "header": "std_msgs/Header", "episode_id": "string", "step": "uint32",
+        "launched": "boolean", "age": "double", "valid": "boolean",
         "closing_displacement": "double", "net_point": "geometry_msgs/Point",
         "target_position": "geometry_msgs/Point",
         "target_orientation": "geometry_msgs/Quaternion",
@@ -91,13 +93,15 @@ EXPECTED_FIELDS = {
     },
     ClosingDecision: {"header": "std_msgs/Header", "episode_id": "string", "step": "uint32",
                       "close": "boolean", "controller": "string"},
+    LaunchDecision: {"header": "std_msgs/Header", "episode_id": "string", "step": "uint32",
+                     "launch": "boolean", "controller": "string"},
     ClosingCommand: {"header": "std_msgs/Header", "closing_displacement": "double"},
     EpisodeResult: {
         "header": "std_msgs/Header", "episode_id": "string", "seed": "uint64",
         "nominal": "boolean", "success": "boolean", "settled_cqi": "double",
         "locked_pairs": "uint32", "closing_time": "double", "completion_time": "double",
         "mass": "double", "failure_reason": "string", "wall_time": "double",
-        "steps": "int64", "max_penetration": "double",
+        "steps": "int64", "max_penetration": "double", "launch_time": "double",
     },
     Design: {
         "corner_mass": "double", "net_side": "double", "thread_radius": "double",
@@ -113,7 +117,8 @@ EXPECTED_FIELDS = {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
         "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
-        "target_mass": "double",
+        "target_mass": "double", "set_launch": "boolean", "launch_policy": "string",
+        "launch_max_wait": "double",
     },
     RunCapture.Response: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
@@ -123,7 +128,8 @@ EXPECTED_FIELDS = {
         "design": "tethernet_msgs/Design", "seed": "uint64", "nominal": "boolean",
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
         "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
-        "target_mass": "double",
+        "target_mass": "double", "set_launch": "boolean", "launch_policy": "string",
+        "launch_max_wait": "double",
     },
     Capture.Result: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",

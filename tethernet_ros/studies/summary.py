@@ -87,6 +87,8 @@ class CellRecord:
         the report, never reused)."""
         out = {**vars(self.stats), "key": self.key, "seed": self.base_seed,
                "cpu_time": self.cpu_time}
+        if out["mean_wait"] == 0.0:
+            del out["mean_wait"]        # (an immediate launch: as summaries before it)
         if self.complete_prefix:
             out["verdicts"] = "".join("1" if v.success else "0" for v in self.verdicts)
             if self.closing_times is not None:
