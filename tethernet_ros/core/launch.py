@@ -26,6 +26,7 @@ import numpy as np
 
 from . import detmath
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
+from .kernel.sensing import N_CHANNELS
 
 __all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "LaunchPolicy", "launch_model"]
 
@@ -33,6 +34,7 @@ __all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "LaunchPolicy", "la
 _LIMITS = {
     "max_wait": (0.0, 3600.0, "a time in [0, 3600] s"),
     "max_tilt_deg": (0.1, 90.0, "an angle in [0.1, 90] deg"),
+    "confirm_time": (0.0, 60.0, "a time in [0, 60] s"),
 }
 
 
@@ -47,12 +49,16 @@ class LaunchConfig:
     flat spin shows every attitude within it); max_tilt_deg: the largest angle between the
     long axis and the plane across the line of sight the predictive policy accepts
     (default 30 deg, |a_z| <= 0.5: the bin in which the tumbling study's Case choices
-    captured 57-59 of 59 samples).  The policy decides at every measurement (the sensing
-    rate, ``core.sensing``), as the closing policy does."""
+    captured 57-59 of 59 samples); confirm_time (s): the predictive policy fires once the
+    attitude has been found favourable at every measurement for this long (default 1 s:
+    with noisy sensing the first measurement below the limit comes early, a noise dip,
+    docs/model.md §16).  The policy decides at every measurement (the sensing rate,
+    ``core.sensing``), as the closing policy does."""
 
     kind: str = "immediate"
     max_wait: float = 360.0
     max_tilt_deg: float = 30.0
+    confirm_time: float = 1.0
 
     def __post_init__(self):
         if self.kind not in LAUNCH_POLICIES:
@@ -84,6 +90,7 @@ def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchMode
     return LaunchModel(policy=launch.index,
                        max_wait=int(round(launch.max_wait / dt)),
                        cos_limit=detmath.sin(launch.max_tilt_deg * math.pi / 180.0),
+                       confirm=int(round(launch.confirm_time / dt)),
                        window_start=float(start), window_end=float(end),
                        inertia=np.ascontiguousarray(inertia, dtype=np.float64))
 
@@ -97,8 +104,12 @@ class LaunchPolicy:
 
     def __init__(self, launch: LaunchModel):
         self._model = namedtuple("LaunchPolicyModel", "launch")(launch)
+        self._since = np.full(1, -1, dtype=np.int64)     # the kernel's E_FAVOURABLE_SINCE
 
-    def decide(self, meas: np.ndarray, age: float) -> bool:
-        """Whether to fire now, given the newest measurement, taken ``age`` s ago."""
-        return bool(decide_launch_one(self._model, np.asarray(meas, dtype=np.float64),
-                                      float(age)))
+    def decide(self, meas: np.ndarray | None, age: float, step: int) -> bool:
+        """Whether to fire at ``step`` (the mission's clock), given the newest measurement
+        (None: none has arrived yet), taken ``age`` s ago."""
+        valid = meas is not None
+        values = np.asarray(meas if valid else np.zeros(N_CHANNELS), dtype=np.float64)
+        return bool(decide_launch_one(self._model, self._since, valid, values, float(age),
+                                      int(step)))

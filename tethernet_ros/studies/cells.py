@@ -182,7 +182,10 @@ def launch_cells(base: SimConfig) -> list[Cell]:
 
     sensing = (SensingConfig(**{**vars(base.sensing), **LAUNCH_SENSING})
                if base.sensing.noiseless else base.sensing)
-    spins = [("flat", rate, "flat") for rate in TUMBLE_RATES]
+    # the rates at both ends and the middle first, so that a study stopped early has
+    # measured the span (the report sorts them)
+    order = sorted(TUMBLE_RATES, key=lambda r: (r not in (0.5, 2.0, 8.0), r))
+    spins = [("flat", rate, "flat") for rate in order]
     spins += [("precessing", rate, PRECESSING_AXIS) for rate in PRECESSING_RATES]
     cells = []
     for name, rate, axis in spins:

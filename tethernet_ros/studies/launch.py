@@ -18,6 +18,13 @@ def _split(label: str):
     return f"{axis} {rate}", closing, launch
 
 
+def _row_order(cell):
+    """Rows by axis (in the study's order), rate, then closing policy as the cells have
+    them."""
+    axis, rate, closing, _launch = cell.label.split(" ")
+    return (axis != "flat", float(rate), closing != "threshold")
+
+
 def _p(c) -> str:
     if c is None or not c.stats.n:
         return "-"
@@ -57,7 +64,7 @@ def launch_table(designs: list[str], cells: list, records: dict) -> str:
                    "P*_s predictive % [95 %] | mean wait (s) | mean T (s) | "
                    "flips imm / pred | McNemar p |")
         out.append("|---|---|---|---|---|---|---|---|---|")
-        for c in cells:
+        for c in sorted(cells, key=_row_order):
             spin, closing, launch = _split(c.label)
             if launch != LAUNCHES[0]:
                 continue

@@ -24,10 +24,11 @@ CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE = 0, 1, 2
 
 #: Integer episode state, one int64 array; these name its slots.  E_STEP counts the
 #: flight's steps from the launch; E_LAUNCH_STEP the steps the chaser waited before it
-#: (``launch``), E_LAUNCHED whether the net has left.
+#: (``launch``), E_LAUNCHED whether the net has left, E_FAVOURABLE_SINCE the mission step
+#: since which every launch decision found the attitude favourable (-1: not now).
 (E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED, E_LAUNCH_STEP,
- E_LAUNCHED) = range(7)
-N_EV = 7
+ E_LAUNCHED, E_FAVOURABLE_SINCE) = range(8)
+N_EV = 8
 
 #: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
 #: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (CONTACT_*);
@@ -79,6 +80,7 @@ def new_events(closing_armed: bool = True, tether_locked: bool = False,
     waiting to launch, at its step 0)."""
     ev = np.zeros(N_EV, dtype=np.int64)
     ev[E_LAUNCHED] = 1 if launched else 0
+    ev[E_FAVOURABLE_SINCE] = -1
     ev[E_CLOSING_ARMED] = 1 if closing_armed else 0
     ev[E_CLOSING_STEP] = -1
     ev[E_TETHER_LOCKED] = 1 if tether_locked else 0

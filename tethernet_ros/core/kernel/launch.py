@@ -18,7 +18,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .data import E_LAUNCH_STEP, E_LAUNCHED
+from .data import E_FAVOURABLE_SINCE, E_LAUNCH_STEP, E_LAUNCHED
 from .geometry import quat_to_matrix_lane
 from .rigid import _sub_rotation, integrate_target
 from .measure import sense
@@ -37,17 +37,18 @@ WINDOW_STEPS = 8
 #: The launch's constants: policy (index into LAUNCH_POLICIES); max_wait: steps after
 #: which the chaser fires anyway (at its next measurement); cos_limit: the largest |a_z|
 #: (the cosine between the long axis and the line of sight) the predictive policy
-#: accepts over its window; window_start,
-#: window_end (s after the launch): when the net is predicted to reach the target's centre
-#: and to finish closing; inertia (3,): the principal moments the chaser believes the
-#: target has (kg m^2), its shape's.
-LaunchModel = namedtuple("LaunchModel", "policy max_wait cos_limit window_start window_end "
-                                        "inertia")
+#: accepts over its window; confirm: steps for which every decision must have found the
+#: attitude favourable before the chaser fires (a noisy measurement dips below the limit
+#: before the truth does); window_start, window_end (s after the launch): when the net is
+#: predicted to reach the target's centre and to finish closing; inertia (3,): the
+#: principal moments the chaser believes the target has (kg m^2), its shape's.
+LaunchModel = namedtuple("LaunchModel", "policy max_wait cos_limit confirm window_start "
+                                        "window_end inertia")
 
 
 def immediate_launch() -> LaunchModel:
     """The launch of every episode before launch policies: fire at once."""
-    return LaunchModel(policy=LAUNCH_IMMEDIATE, max_wait=0, cos_limit=1.0,
+    return LaunchModel(policy=LAUNCH_IMMEDIATE, max_wait=0, cos_limit=1.0, confirm=0,
                        window_start=0.0, window_end=0.0, inertia=np.ones(3))
 
 
@@ -103,10 +104,11 @@ def _drift(q, L, inertia, h):
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def decide_launch(model, meas, age) -> bool:
-    """Whether lane's policy fires now, from its newest measurement (taken ``age`` s
-    ago).  immediate: always; predictive: when the long axis is predicted to stay within
-    the accepted tilt of the plane across the line of sight while the net wraps."""
+def favourable(model, meas, age) -> bool:
+    """Whether the policy finds the attitude favourable now, from its newest measurement
+    (taken ``age`` s ago).  immediate: always; predictive: when the long axis is predicted
+    to stay within the accepted tilt of the plane across the line of sight while the net
+    wraps."""
     lm = model.launch
     if lm.policy == LAUNCH_IMMEDIATE:
         return True
@@ -116,9 +118,23 @@ def decide_launch(model, meas, age) -> bool:
                                 lm.window_end) <= lm.cos_limit
 
 
+@njit(cache=True, inline='always', error_model='numpy')
+def decide_launch(model, since, l, valid, meas, age, step) -> bool:
+    """Whether lane l fires at ``step`` (the mission's clock): once every decision since
+    ``since[l]`` (its memory: the step from which the attitude has been favourable, -1:
+    not now) found it favourable for at least ``confirm`` steps.  ``valid``: whether a
+    measurement has arrived (none: not favourable)."""
+    if valid and favourable(model, meas, age):
+        if since[l] < 0:
+            since[l] = step
+        return step - since[l] >= model.launch.confirm
+    since[l] = -1
+    return False
+
+
 @njit(cache=True, error_model='numpy')
-def decide_launch_one(model, meas, age) -> bool:
-    return decide_launch(model, meas, age)
+def decide_launch_one(model, since, valid, meas, age, step) -> bool:
+    return decide_launch(model, since, 0, valid, meas, age, step)
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -148,11 +164,11 @@ def wait_step(model, data, scr, l) -> int:
             return 1
         if lm.policy == LAUNCH_EXTERNAL:
             return -1
-        if slot >= 0:
-            age = (k - data.sensor.taken[slot, l]) * model.params.dt
-            if decide_launch(model, data.sensor.buf[slot, :, l], age):
-                ev[E_LAUNCHED, l] = 1
-                return 1
+        age = 0.0 if slot < 0 else (k - data.sensor.taken[slot, l]) * model.params.dt
+        if decide_launch(model, ev[E_FAVOURABLE_SINCE], l, slot >= 0,
+                         data.sensor.buf[max(slot, 0), :, l], age, k):
+            ev[E_LAUNCHED, l] = 1
+            return 1
     hold(model, data, scr, l)
     return 0
 

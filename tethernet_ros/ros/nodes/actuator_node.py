@@ -125,7 +125,7 @@ class ActuatorNode(Node):
         if not msg.launched:
             if launch_policy is None:
                 return                   # not ours to answer (a user's controller decides)
-            fire = values is not None and launch_policy.decide(values, msg.age)
+            fire = launch_policy.decide(values, msg.age, msg.step)
             self.pub_launch_decision.publish(conv.launch_decision_msg(msg, fire, launch_name))
             return
         if policy is None:
