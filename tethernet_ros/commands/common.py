@@ -39,7 +39,7 @@ SCENARIO_FLAGS = {
     "--target-mass": ("target", "mass"), "--target-units": ("target", "units"),
     "--target-attitude": ("target", "attitude_deg"),
     "--launch-policy": ("launch", "kind"), "--launch-max-wait": ("launch", "max_wait"),
-    "--launch-max-tilt": ("launch", "max_tilt_deg"),
+    "--launch-max-tilt": ("launch", "max_tilt_deg"), "--launch-confirm": ("launch", "confirm_time"),
 }
 
 
@@ -133,6 +133,9 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
     g.add_argument("--launch-max-tilt", type=float, default=None, metavar="DEG",
                    help="the predictive policy's largest tilt of the long axis out of the "
                         "plane across the line of sight, in [0.1, 90] deg (default 30)")
+    g.add_argument("--launch-confirm", type=float, default=None, metavar="S",
+                   help="the predictive policy fires once the attitude has been favourable at "
+                        "every measurement for this long, in [0, 60] s (default 1)")
     g.add_argument("--net-point", choices=NET_POINTS, default=None,
                    help="the net's sensed reference point (default com)")
     g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",
