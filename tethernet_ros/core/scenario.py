@@ -425,12 +425,13 @@ def _planned_window(design: Design, plan: SimConfig) -> tuple[float, float]:
     scratch = kn.new_scratch(model, 1)
     chunk = steps_every(plan.metric_rate, sc.dt)
     nodes = sc.net_nodes
-    m = sc.bodies.mass[nodes]
+    m = [float(v) for v in sc.bodies.mass[nodes]]
+    total = math.fsum(m)
     arrival = math.nan
     end = int(round(plan.horizon / sc.dt))
     while not sc.events[kn.E_CLOSING_ACTIVE] and sc.events[kn.E_STEP] < end:
         advance_kernel(plan, model, data, scratch, chunk)
-        z = float((sc.bodies.x[nodes, 2] * m).sum() / m.sum())
+        z = math.fsum(float(x) * w for x, w in zip(sc.bodies.x[nodes, 2], m)) / total
         if math.isnan(arrival) and z >= sc.target_body.pos[2]:
             arrival = int(sc.events[kn.E_STEP]) * sc.dt
         if not np.all(np.isfinite(sc.bodies.x)):
