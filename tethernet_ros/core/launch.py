@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath
+from .checks import check_choice, check_numbers
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
 from .kernel.sensing import N_CHANNELS
 
@@ -61,14 +62,8 @@ class LaunchConfig:
     confirm_time: float = 1.0
 
     def __post_init__(self):
-        if self.kind not in LAUNCH_POLICIES:
-            raise LaunchError(f"launch field 'kind': got {self.kind!r}; must be one of "
-                              f"{', '.join(LAUNCH_POLICIES)}")
-        for name, (lo, hi, what) in _LIMITS.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                    or not lo <= v <= hi:
-                raise LaunchError(f"launch field '{name}': got {v!r}; must be {what}")
+        check_choice("launch", "kind", self.kind, LAUNCH_POLICIES, LaunchError)
+        check_numbers("launch", self, _LIMITS, LaunchError)
 
     @property
     def index(self) -> int:

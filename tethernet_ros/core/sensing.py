@@ -20,11 +20,11 @@ users.  Units: SI; angles in the settings in deg.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import check_choice, check_numbers
 from .kernel.model import steps_every
 from .kernel.sensing import (C_NET, C_OMEGA, C_QUAT, C_TGT, C_VEL, N_CHANNELS, TARGET_POSITIONS,
                              det_log, measure_one, new_sensor_data, next_normal, next_uniform,
@@ -70,17 +70,10 @@ class SensingConfig:
     sigma_velocity: float = 0.0
 
     def __post_init__(self):
-        if self.net_point not in NET_POINTS:
-            raise SensingError(f"sensing field 'net_point': got {self.net_point!r}; must be one "
-                               f"of {', '.join(NET_POINTS)}")
-        if self.target_position not in TARGET_POSITIONS:
-            raise SensingError(f"sensing field 'target_position': got {self.target_position!r};"
-                               f" must be one of {', '.join(TARGET_POSITIONS)}")
-        for name, (lo, hi, what) in _LIMITS.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-                    or not lo <= v <= hi:
-                raise SensingError(f"sensing field '{name}': got {v!r}; must be {what}")
+        check_choice("sensing", "net_point", self.net_point, NET_POINTS, SensingError)
+        check_choice("sensing", "target_position", self.target_position, TARGET_POSITIONS,
+                     SensingError)
+        check_numbers("sensing", self, _LIMITS, SensingError)
 
     @property
     def noiseless(self) -> bool:

@@ -62,13 +62,7 @@ def decision_msg(measurement, close: bool, controller: str):
     """ClosingDecision answering a Measurement (same stamp, episode and step)."""
     from tethernet_msgs.msg import ClosingDecision
 
-    m = ClosingDecision()
-    m.header = measurement.header
-    m.episode_id = measurement.episode_id
-    m.step = measurement.step
-    m.close = bool(close)
-    m.controller = controller
-    return m
+    return _answer(ClosingDecision(), measurement, controller, close=bool(close))
 
 
 def launch_decision_msg(measurement, launch: bool, controller: str):
@@ -76,11 +70,17 @@ def launch_decision_msg(measurement, launch: bool, controller: str):
     and step)."""
     from tethernet_msgs.msg import LaunchDecision
 
-    m = LaunchDecision()
+    return _answer(LaunchDecision(), measurement, controller, launch=bool(launch))
+
+
+def _answer(m, measurement, controller: str, **decision):
+    """``m`` (a decision message) answering ``measurement``: its header, episode and step,
+    the decision's field, who decided."""
     m.header = measurement.header
     m.episode_id = measurement.episode_id
     m.step = measurement.step
-    m.launch = bool(launch)
+    for k, v in decision.items():
+        setattr(m, k, v)
     m.controller = controller
     return m
 

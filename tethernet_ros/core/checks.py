@@ -1,0 +1,22 @@
+"""The settings' one rule for refusing a value: the message names the group, the field,
+what it got and what it must be (``<group> field '<name>': got <v>; must be <what>``)."""
+from __future__ import annotations
+
+import math
+
+
+def check_choice(group: str, name: str, value, allowed, error) -> None:
+    """Raise ``error`` unless ``value`` is one of ``allowed``."""
+    if value not in allowed:
+        raise error(f"{group} field '{name}': got {value!r}; must be one of "
+                    f"{', '.join(allowed)}")
+
+
+def check_numbers(group: str, settings, limits: dict, error) -> None:
+    """Raise ``error`` for the first field of ``limits`` (name -> (low, high, words)) whose
+    value in ``settings`` is not a finite number in [low, high]."""
+    for name, (lo, hi, what) in limits.items():
+        v = getattr(settings, name)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+                or not lo <= v <= hi:
+            raise error(f"{group} field '{name}': got {v!r}; must be {what}")
