@@ -35,7 +35,8 @@ def measure_phases(design, sample, config) -> dict:
     process CPU (s) split into flight (to the first contact with the target), wrapping (to
     closing start) and settle (from closing start), attributed per metric interval (0.1 s
     of simulated time) by the state at the interval's end; ``sim_s``: its simulated length
-    (s).  Building the scenario counts as flight."""
+    (s).  Building the scenario counts as flight, and so does the wait before a launch
+    policy fires (docs/model.md §16), which runs as the scenario is built."""
     from ..core.episode import run_actions
     from ..core.scenario import actions_for, world_for
 
