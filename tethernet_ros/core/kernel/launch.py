@@ -1,11 +1,12 @@
 """The launch inside the kernel (docs/model.md §16; the settings and the rules in words are
 ``core.launch``): before the net leaves, the chaser watches the target turn and a launch
-policy says, at each of its decision steps, whether to fire now.
+policy says, at each measurement, whether to fire now (``decide_launch``: once the
+attitude has been favourable for the confirmation time).
 
 While a lane waits, only its target moves: the kernel's own step of an untouched target
 (``rigid.integrate_target`` under no force), so a wait of n steps leaves the target exactly
 where n steps of flight would have turned it.  The sensor measures on its own period as
-it will in flight (``events.sense``, the same generator and buffer), and the lane's clock
+it will in flight (``measure.sense``, the same generator and buffer), and the lane's clock
 keeps the waiting steps in ``E_LAUNCH_STEP``: the mission's time is the launch step plus
 the flight's step.
 
@@ -20,7 +21,7 @@ from numba import njit
 
 from .data import E_FAVOURABLE_SINCE, E_LAUNCH_STEP, E_LAUNCHED
 from .geometry import quat_to_matrix_lane
-from .rigid import _sub_rotation, integrate_target
+from .rigid import integrate_target, sub_rotation
 from .measure import sense
 from .sensing import C_OMEGA, C_QUAT
 
@@ -96,11 +97,11 @@ def _drift(q, L, inertia, h):
     if h == 0.0:
         return
     half = 0.5 * h
-    _sub_rotation(q, L, inertia, 0, half, 0)
-    _sub_rotation(q, L, inertia, 1, half, 0)
-    _sub_rotation(q, L, inertia, 2, h, 0)
-    _sub_rotation(q, L, inertia, 1, half, 0)
-    _sub_rotation(q, L, inertia, 0, half, 0)
+    sub_rotation(q, L, inertia, 0, half, 0)
+    sub_rotation(q, L, inertia, 1, half, 0)
+    sub_rotation(q, L, inertia, 2, h, 0)
+    sub_rotation(q, L, inertia, 1, half, 0)
+    sub_rotation(q, L, inertia, 0, half, 0)
 
 
 @njit(cache=True, inline='always', error_model='numpy')

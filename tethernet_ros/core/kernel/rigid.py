@@ -19,7 +19,7 @@ from .geometry import quat_to_matrix_lane
 
 
 @njit(cache=True, inline='always', error_model='numpy')
-def _sub_rotation(q, L, inertia, axis, dt, l):
+def sub_rotation(q, L, inertia, axis, dt, l):
     """Torque-free flow of L_axis^2 / (2 I_axis) over dt in lane l: q <- q (x) r and
     L <- Q(r)^T L, r the Cayley quaternion of the angle L_axis dt / I_axis about the body
     axis."""
@@ -92,11 +92,11 @@ def torque_free_drift(q, Lw, R, L, inertia, dt, l):
         for c in range(3):
             L[c, l] = R[0, c, l] * Lw[0, l] + R[1, c, l] * Lw[1, l] + R[2, c, l] * Lw[2, l]
         half = 0.5 * dt
-        _sub_rotation(q, L, inertia, 0, half, l)
-        _sub_rotation(q, L, inertia, 1, half, l)
-        _sub_rotation(q, L, inertia, 2, dt, l)
-        _sub_rotation(q, L, inertia, 1, half, l)
-        _sub_rotation(q, L, inertia, 0, half, l)
+        sub_rotation(q, L, inertia, 0, half, l)
+        sub_rotation(q, L, inertia, 1, half, l)
+        sub_rotation(q, L, inertia, 2, dt, l)
+        sub_rotation(q, L, inertia, 1, half, l)
+        sub_rotation(q, L, inertia, 0, half, l)
         qn = np.sqrt(q[0, l] * q[0, l] + q[1, l] * q[1, l] + q[2, l] * q[2, l] + q[3, l] * q[3, l])
         q[0, l] = q[0, l] / qn
         q[1, l] = q[1, l] / qn
