@@ -7,8 +7,9 @@ the lane waits, or is left to a controller outside it ('external').
 - ``predictive``: at each decision, predict by torque-free rotation, from the sensed
   attitude and angular velocity and the inertia of the target's shape, the attitude over
   the window in which the net wraps the target (from the moment the net's centre of mass
-  is planned to reach the target's centre to the end of closing), and fire when the long
-  axis stays within ``max_tilt_deg`` of the plane across the line of sight all through it.
+  is planned to reach the target's centre to the end of closing), and fire once the long
+  axis has been predicted, at every measurement for ``confirm_time``, to stay within
+  ``max_tilt_deg`` of the plane across the line of sight all through it.
   The tumbling study (docs/studies/tumbling.md) found the net fails on a stage met end-on.
 - ``external``: a controller outside the kernel fires (the ROS suite's launch controller).
 
@@ -88,7 +89,6 @@ def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchMode
                        confirm=int(round(launch.confirm_time / dt)),
                        window_start=float(start), window_end=float(end),
                        inertia=np.ascontiguousarray(inertia, dtype=np.float64))
-
 
 
 class LaunchPolicy:
