@@ -233,6 +233,12 @@ def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite
     assert [m.launched for m in sensed[:len(fired)]] == [False] * len(fired)
     assert all(m.launched for m in sensed[len(fired):])
     assert [m.age for m in sensed[3:6]] == [0.06] * 3            # the latency: 3 periods
+    # the target's states while it turns before the launch: the capture node sees the
+    # simulation alive (its stall timeout) and viewers see the tumble
+    states = msgs[TOPICS["net_state"]]
+    waiting = [st for st in states if st.step < fired[-1].step]
+    assert len(waiting) > 10 and all(st.launch_step == st.step for st in waiting)
+    assert states[-1].launch_step == fired[-1].step
     out = subprocess.run([sys.executable, "-m", "tethernet_ros.cli", "replay", str(bag), "--json"],
                          capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]

@@ -22,7 +22,8 @@ class PublishingSimulation(ControlledSimulation):
     """A simulation that calls ``on_publish(self)`` at every multiple of ``every`` steps
     while advancing (splitting advance() there does not change the result), after the
     closing decision of that step if a ``controller`` decides outside the kernel
-    (:class:`~.loop.ControlledSimulation`, a lockstep episode)."""
+    (:class:`~.loop.ControlledSimulation`, a lockstep episode), and while it waits to
+    launch (:meth:`hold`)."""
 
     def __init__(self, scenario, every: int, on_publish, should_stop, controller=None):
         super().__init__(scenario, controller)
@@ -41,9 +42,21 @@ class PublishingSimulation(ControlledSimulation):
             if self.step % self.every == 0:
                 self.publish()
 
+    def hold(self) -> None:
+        """A control step of the wait before the launch (lockstep): the target turns; its
+        state is published once the mission's clock has passed another multiple of
+        ``every`` steps (the kernel holds the steps between control steps itself), so that
+        viewers see it turn and the capture node sees the simulation alive."""
+        if self.should_stop():
+            raise EpisodeAborted()
+        super().hold()
+        if (self.launch_step + self.step) // self.every > max(self.last_published, 0) // self.every:
+            self.publish()
+
     def publish(self) -> None:
-        if self.step != self.last_published:
-            self.last_published = self.step
+        mission = self.launch_step + self.step
+        if mission != self.last_published:
+            self.last_published = mission
             self.on_publish(self)
 
 

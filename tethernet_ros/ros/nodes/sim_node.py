@@ -261,14 +261,15 @@ class SimNode(Node):
                 delay = t_wall0 + sim.time / rtf - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
-            with_markers = bool(marker_every) and sim.step % marker_every == 0
+            mission = sim.launch_step + sim.step          # (the wait before the launch too)
+            with_markers = bool(marker_every) and mission % marker_every == 0
             if with_markers:
-                marker_step[0] = sim.step
+                marker_step[0] = mission
             state = state_arrays(sim)
             outbox.put(lambda: publish_states(state, with_markers))
 
         def publish_markers(sim):
-            marker_step[0] = sim.step
+            marker_step[0] = sim.launch_step + sim.step
             state = state_arrays(sim)
             outbox.put(lambda: self.stopping() or self.pub_markers.publish(markers.build(state)))
 
@@ -311,7 +312,7 @@ class SimNode(Node):
                 result = episode_result(sim, str(exc))
                 log.error(f"episode {setup.episode_id!r}: {exc}")
             sim.publish()                                   # the final state (if not yet)
-            if marker_every and marker_step[0] != sim.step:
+            if marker_every and marker_step[0] != sim.launch_step + sim.step:
                 publish_markers(sim)                        # ... and its markers
             result.seed = setup.seed
             msg = conv.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time,
