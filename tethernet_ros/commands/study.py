@@ -287,6 +287,9 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     (outdir / f"{name}.json").write_text(json.dumps(json_clean(summary), indent=1))
     if args.study == "tumbling":
         plot_tumbling(designs, stats, outdir / f"{name}.png", title)
+    elif args.study == "launch":
+        from ..studies.launch import plot_launch
+        plot_launch(designs, cells, stats, outdir / f"{name}.png", title)
     else:
         plot_study(designs, cells, stats, outdir / f"{name}.png", title)
     return md

@@ -87,3 +87,50 @@ def launch_summary(pairs: dict) -> list[dict]:
              "p_predictive": p.b.p, "immediate_only": p.a_only, "predictive_only": p.b_only,
              "mcnemar_p": p.mcnemar_p, "mean_wait": p.b.mean_wait, "t_diff": p.t_diff}
             for (spin, closing, d), p in pairs.items()]
+
+
+def plot_launch(designs: list[str], cells: list, stats: dict, path, title: str) -> None:
+    """P*_s (top, Wilson intervals as bars) and mean wait (bottom) against the flat-spin
+    rate, a colour per design, the immediate launch dashed and the predictive solid, one
+    line style per closing policy's marker; rates without results are left out."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8.5, 7.5), sharex=True)
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    markers = {"threshold": "o", "adaptive": "s"}
+    for k, d in enumerate(designs):
+        for closing, marker in markers.items():
+            for launch in LAUNCHES:
+                pts = []
+                for c in cells:
+                    axis, rate, cl, la = c.label.split(" ")
+                    s = stats.get((c.label, d))
+                    if axis == "flat" and cl == closing and la == launch and s is not None \
+                            and s.n:
+                        pts.append((float(rate), s))
+                if not pts:
+                    continue
+                pts.sort(key=lambda p: p[0])
+                x = [p[0] for p in pts]
+                p = [100 * s.p for _, s in pts]
+                err = [[100 * (s.p - s.lo) for _, s in pts], [100 * (s.hi - s.p) for _, s in pts]]
+                style = "-" if launch == "predictive" else "--"
+                top.errorbar(x, p, yerr=err, color=colours[k % len(colours)], ls=style,
+                             marker=marker, capsize=3,
+                             label=f"{d.rsplit('/', 1)[-1]}, {closing}, {launch}")
+                if launch == "predictive":
+                    bottom.plot(x, [s.mean_wait for _, s in pts], color=colours[k % len(colours)],
+                                ls=style, marker=marker)
+    top.axhline(98.0, color="grey", lw=0.8, ls=":")
+    top.set_ylabel("P*_s (%), Wilson 95 %")
+    top.set_title(title)
+    top.legend(fontsize=7, loc="center left", bbox_to_anchor=(0.01, 0.55), ncol=2)
+    bottom.set_ylabel("predictive launch: mean wait (s)")
+    bottom.set_xlabel("flat spin rate (deg/s)")
+    bottom.set_xscale("log", base=2)
+    bottom.set_xticks([0.5, 1, 2, 4, 8], ["0.5", "1", "2", "4", "8"])
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
