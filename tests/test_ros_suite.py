@@ -134,6 +134,7 @@ def test_bag_with_rosbags(captured, reference):
         TOPICS["true_measurement"]: "tethernet_msgs/msg/Measurement",
         TOPICS["measurement"]: "tethernet_msgs/msg/Measurement",
         TOPICS["closing_decision"]: "tethernet_msgs/msg/ClosingDecision",
+        TOPICS["launch_decision"]: "tethernet_msgs/msg/LaunchDecision",
         TOPICS["sensed_target_pose"]: "geometry_msgs/msg/PoseWithCovarianceStamped",
         TOPICS["sensed_target_twist"]: "geometry_msgs/msg/TwistWithCovarianceStamped",
         TOPICS["sensed_net_point"]: "geometry_msgs/msg/PointStamped",
