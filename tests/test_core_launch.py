@@ -221,11 +221,10 @@ def test_controllers_outside_the_kernel_give_the_kernels_launch_and_closing_bit_
     sensor = Sensor(sc.control, sc.sensor_seed)
 
     def controller(sim) -> bool:
-        step = sim.launch_step + sim.step
+        step = sim.mission_step
         meas = sensor.measure(truth_of(sim), step)
         if not sim.launched:
-            age = 0.0 if meas is None else (step - sensor.taken) * sim.dt
-            return launch_policy.decide(meas, age, step)
+            return launch_policy.decide(meas, sensor.age(step, sim.dt), step)
         return meas is not None and policy.decide(meas)
 
     sim = ControlledSimulation(sc, controller)

@@ -31,8 +31,8 @@ class StateMirror:
         self.design = design
         self.config = config
         # (never advanced: its launch is left to the states it loads, not waited for)
-        mirror = config if config.launch.kind in ("immediate", "external") else \
-            config.replace(launch=replace(config.launch, kind="external"))
+        mirror = config.replace(launch=replace(config.launch, kind="external")) \
+            if config.launch.built_in else config
         self.sim = CaptureSimulation(build_scenario(design, actions, world, mirror))
         # run_simulation tests for divergence at its clock's steps (and at the end step); a
         # verdict on divergence is taken at those steps only, as there

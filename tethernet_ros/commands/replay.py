@@ -247,8 +247,7 @@ def _replay_loop(setup, actions, world, truths, sensed, decisions, launch_decisi
             if close != bool(decided_at[step].close):
                 loop["decision_mismatches"] += 1
         if launch_policy is not None and step in launch_at:
-            age = 0.0 if recorded is None else (step - sensor.taken) * scenario.dt
-            fire = launch_policy.decide(recorded, age, step)
+            fire = launch_policy.decide(recorded, sensor.age(step, scenario.dt), step)
             loop["decisions_recomputed"] += 1
             if fire != bool(launch_at[step].launch):
                 loop["decision_mismatches"] += 1

@@ -212,7 +212,7 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     """The study's table (.md, keeping its hand-written part), summary (.json, every
     cell's record) and figure (.png) from the cells recorded so far; returns the table
     (``design_of``: each design's name or file -> its Design)."""
-    from ..studies.paired import PairedStats
+    from ..studies.paired import paired_cells
     from ..studies.report import comparison_table, plot_study, study_table
     from ..studies.summary import earlier_records, keep_written_text
 
@@ -222,11 +222,9 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     paired = {}
     for c in cells[1:]:
         for d in designs:
-            a, b = records.get((cells[0].label, d)), records.get((c.label, d))
-            if a is None or b is None or not a.stats.n or a.stats.n != b.stats.n:
-                continue   # (a cell still running: compared once complete)
-            paired[(c.label, d)] = PairedStats.from_samples(a.stats, b.stats, a.verdicts,
-                                                            b.verdicts)
+            got = paired_cells(records.get((cells[0].label, d)), records.get((c.label, d)))
+            if got is not None:
+                paired[(c.label, d)] = got
     outdir = Path(args.out)
     name = args.name or args.study
     title = f"study {args.study}: N = {args.samples} per cell, base seed {args.seed}"

@@ -58,8 +58,14 @@ class CaptureSimulation:
         return self.launch_step * self.dt
 
     @property
+    def mission_step(self) -> int:
+        """The step on the mission's clock: the steps waited plus the flight's (the
+        kernel's ``measure.mission_step``)."""
+        return self.launch_step + self.step
+
+    @property
     def time(self) -> float:
-        return (self.launch_step + self.step) * self.dt
+        return self.mission_step * self.dt
 
     @property
     def closing_active(self) -> bool:
@@ -281,7 +287,7 @@ class EpisodeRecorder:
         metric_every, state_every = self.clock.metric_every, self.clock.state_every
         if trace is not None and step % metric_every == 0:
             terms = sim.cqi()
-            trace.time.append((sim.launch_step + step) * sim.dt)
+            trace.time.append(sim.time)
             trace.cqi.append(terms.cqi)
             trace.volume_term.append(terms.volume_term)
             trace.area_term.append(terms.area_term)
@@ -289,7 +295,7 @@ class EpisodeRecorder:
             trace.locked_pairs.append(sim.locked_pairs)
             trace.z_rel.append(float(sim.net_centre_of_mass()[2] - sim.s.target_body.pos[2]))
         if trace is not None and state_every and step % state_every == 0:
-            trace.state_time.append((sim.launch_step + step) * sim.dt)
+            trace.state_time.append(sim.time)
             trace.positions.append(sim.s.bodies.x.copy())
             trace.target_pose.append([*sim.s.target_body.pos, *sim.s.target_body.quat])
         if observer is not None and step % metric_every == 0:

@@ -74,15 +74,22 @@ class LaunchConfig:
     def immediate(self) -> bool:
         return self.kind == "immediate"
 
+    @property
+    def built_in(self) -> bool:
+        """Whether the chaser waits and a policy of the project decides (neither
+        'immediate' nor 'external'): the kernel's, or its copy outside the kernel."""
+        return self.kind not in ("immediate", "external")
+
 
 def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchModel:
     """The kernel's launch constants (``kernel.launch.LaunchModel``) for a step of ``dt``
     s: the prediction's ``window`` (start, end) (s after the launch: the planned arrival of the
     net at the target's centre and the planned end of closing,
-    ``scenario.planned_window``); ``inertia``: the shape's principal moments (kg m^2)."""
+    ``scenario.planned_window``; None for a policy that predicts nothing, 'external');
+    ``inertia``: the shape's principal moments (kg m^2)."""
     if launch.immediate:
         return immediate_launch()
-    start, end = window
+    start, end = (0.0, 0.0) if window is None else window
     return LaunchModel(policy=launch.index,
                        max_wait=int(round(launch.max_wait / dt)),
                        cos_limit=detmath.sin(launch.max_tilt_deg * math.pi / 180.0),

@@ -183,7 +183,7 @@ class Scenario:
     close_threshold: float = 0.0
     iterations: int = 4
     control: kn.ControlModel | None = None
-    launch: object = None
+    launch: kn.LaunchModel | None = None
     sensor_seed: int = 0
     broadphase: str = "on"
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
@@ -331,7 +331,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     sc.set_params(dt=sc.dt)
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
     sc.launch = launch_model(cfg.launch, sc.dt,
-                             None if cfg.launch.immediate else planned_window(design, cfg),
+                             planned_window(design, cfg) if cfg.launch.built_in else None,
                              target.inertia)
     if not cfg.launch.immediate:
         sc.events[kn.E_LAUNCHED] = 0
@@ -403,8 +403,7 @@ def planned_window(design: Design, config: SimConfig) -> tuple[float, float]:
     threshold trigger, fired at once (its flight only, up to closing).  This is what the
     chaser plans from its own design; the net slows as it spreads, so a constant speed
     from the launch momentum comes 6-19 % early on the reference designs (docs/model.md
-    §16).  Once per design and
-    configuration in a process."""
+    §16).  Once per design and configuration in a process."""
     plan = config.replace(launch=LaunchConfig(), tumble=TumbleConfig(),
                           sensing=SensingConfig(), state_rate=0.0,
                           policy=PolicyConfig(closing_time=config.policy.closing_time))

@@ -111,3 +111,8 @@ class Sensor:
         got = measure_one(self.control, self.state, np.asarray(truth, dtype=np.float64), int(step))
         self.taken = int(got[N_CHANNELS])
         return None if self.taken < 0 else got[:N_CHANNELS].copy()
+
+    def age(self, step: int, dt: float) -> float:
+        """How old (s) the last measurement returned is at ``step``, for a step of ``dt``
+        s, as the kernel's launch wait reckons it; 0 before the first has arrived."""
+        return 0.0 if self.taken < 0 else (int(step) - self.taken) * dt

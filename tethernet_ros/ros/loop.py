@@ -93,7 +93,7 @@ def kernel_config(config: SimConfig) -> SimConfig:
     out = config
     if out.policy.kind != EXTERNAL:
         out = out.replace(policy=replace(out.policy, kind=EXTERNAL))
-    if out.launch.kind not in (EXTERNAL, "immediate"):
+    if out.launch.built_in:
         out = out.replace(launch=replace(out.launch, kind=EXTERNAL))
     return out
 
@@ -117,7 +117,7 @@ def episode_launch_policy(setup: Setup, scenario: Scenario) -> LaunchPolicy | No
     None when the launch is immediate (nothing to decide) or 'external' (a user's
     controller decides).  ``scenario`` must be built with the episode's own
     configuration (not :func:`kernel_config`'s)."""
-    if setup.config.launch.kind in (EXTERNAL, "immediate"):
+    if not setup.config.launch.built_in:
         return None
     return LaunchPolicy(scenario.launch)
 
@@ -137,7 +137,7 @@ def control_step_due(sim: CaptureSimulation, period: int) -> bool:
     of the mission's clock while closing is armed and not yet active
     (``closing_events``)."""
     ev = sim.s.events
-    return ((sim.launch_step + sim.step) % period == 0 and ev[kn.E_CLOSING_ARMED] == 1
+    return (sim.mission_step % period == 0 and ev[kn.E_CLOSING_ARMED] == 1
             and ev[kn.E_CLOSING_ACTIVE] == 0)
 
 

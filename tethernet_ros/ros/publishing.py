@@ -50,13 +50,12 @@ class PublishingSimulation(ControlledSimulation):
         if self.should_stop():
             raise EpisodeAborted()
         super().hold()
-        if (self.launch_step + self.step) // self.every > max(self.last_published, 0) // self.every:
+        if self.mission_step // self.every > max(self.last_published, 0) // self.every:
             self.publish()
 
     def publish(self) -> None:
-        mission = self.launch_step + self.step
-        if mission != self.last_published:
-            self.last_published = mission
+        if self.mission_step != self.last_published:
+            self.last_published = self.mission_step
             self.on_publish(self)
 
 

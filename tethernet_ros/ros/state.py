@@ -90,7 +90,7 @@ def state_arrays(sim) -> StateArrays:
     b, t = s.bodies, s.target_body
     ct = sim.closing_time
     return StateArrays(
-        step=sim.launch_step + sim.step, sim_time=sim.time,     # the mission's clock
+        step=sim.mission_step, sim_time=sim.time,
         launch_step=sim.launch_step,
         positions=np.array(b.x, dtype=float), velocities=np.array(b.v, dtype=float),
         target_position=np.array(t.pos, dtype=float),

@@ -10,18 +10,25 @@ from __future__ import annotations
 import math
 
 from .cells import LAUNCHES
+from .paired import paired_cells
+
+
+def _parts(label: str):
+    """(axis, rate (str), closing, launch) of a cell label."""
+    axis, rate, closing, launch = label.split(" ")
+    return axis, rate, closing, launch
 
 
 def _split(label: str):
     """(spin, closing, launch) of a cell label, spin being '<axis> <rate>'."""
-    axis, rate, closing, launch = label.split(" ")
+    axis, rate, closing, launch = _parts(label)
     return f"{axis} {rate}", closing, launch
 
 
 def _row_order(cell):
     """Rows by axis (in the study's order), rate, then closing policy as the cells have
     them."""
-    axis, rate, closing, _launch = cell.label.split(" ")
+    axis, rate, closing, _launch = _parts(cell.label)
     return (axis != "flat", float(rate), closing != "threshold")
 
 
@@ -39,15 +46,13 @@ def _num(x, fmt="{:.2f}") -> str:
 def launch_pairs(designs: list[str], cells: list, records: dict) -> dict:
     """(spin, closing, design) -> PairedStats of the predictive launch (b) against the
     immediate one (a) over the same samples, where both cells are complete."""
-    from .tumbling import _paired
-
     out = {}
     for c in cells:
         spin, closing, launch = _split(c.label)
         if launch != LAUNCHES[0]:
             continue
         for d in designs:
-            got = _paired(records.get((c.label, d)),
+            got = paired_cells(records.get((c.label, d)),
                           records.get((f"{spin} {closing} {LAUNCHES[1]}", d)))
             if got is not None:
                 out[(spin, closing, d)] = got
@@ -105,7 +110,7 @@ def plot_launch(designs: list[str], cells: list, stats: dict, path, title: str) 
             for launch in LAUNCHES:
                 pts = []
                 for c in cells:
-                    axis, rate, cl, la = c.label.split(" ")
+                    axis, rate, cl, la = _parts(c.label)
                     s = stats.get((c.label, d))
                     if axis == "flat" and cl == closing and la == launch and s is not None \
                             and s.n:

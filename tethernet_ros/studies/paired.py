@@ -98,3 +98,13 @@ class PairedStats:
         flips = a_only + b_only
         p = binomtest(a_only, flips, 0.5).pvalue if flips else 1.0
         return cls(a, b, flips, a_only, b_only, float(p))
+
+
+def paired_cells(a, b) -> PairedStats | None:
+    """PairedStats of cell record b against cell record a (anything with ``stats`` and
+    ``verdicts``, ``summary.CellRecord``) over the same samples, or None unless both are
+    there with the same (non-zero) number of samples: a cell still running is compared
+    once complete."""
+    if a is None or b is None or not a.stats.n or a.stats.n != b.stats.n:
+        return None
+    return PairedStats.from_samples(a.stats, b.stats, a.verdicts, b.verdicts)

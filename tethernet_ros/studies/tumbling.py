@@ -17,7 +17,7 @@ from pathlib import Path
 from ..montecarlo.attitude import (ATTITUDE_BINS, attitude_counts, attitude_heads,
                                    closing_attitude_counts)
 from .cells import TUMBLE_AXES, TUMBLE_RATES
-from .paired import PairedStats
+from .paired import paired_cells
 from .report import error_bars
 
 POLICIES = ("threshold", "adaptive")
@@ -217,19 +217,11 @@ def policy_pairs(designs: list[str], records: dict) -> dict:
     out = {}
     for axis, rate in [(None, 0.0)] + [(a, r) for a in TUMBLE_AXES for r in TUMBLE_RATES]:
         for d in designs:
-            got = _paired(records.get((_label(axis, rate, "threshold"), d)),
+            got = paired_cells(records.get((_label(axis, rate, "threshold"), d)),
                           records.get((_label(axis, rate, "adaptive"), d)))
             if got is not None:
                 out[(axis, rate, d)] = got
     return out
-
-
-def _paired(a, b) -> PairedStats | None:
-    """PairedStats of CellRecord b against CellRecord a over the same samples, or None
-    unless both are there with the same (non-zero) number of samples."""
-    if a is None or b is None or not a.stats.n or a.stats.n != b.stats.n:
-        return None
-    return PairedStats.from_samples(a.stats, b.stats, a.verdicts, b.verdicts)
 
 
 def rest_pairs(designs: list[str], records: dict) -> dict:
@@ -241,7 +233,7 @@ def rest_pairs(designs: list[str], records: dict) -> dict:
         for rate in TUMBLE_RATES:
             for policy in POLICIES:
                 for d in designs:
-                    got = _paired(records.get((_label(None, 0.0, policy), d)),
+                    got = paired_cells(records.get((_label(None, 0.0, policy), d)),
                                   records.get((_label(axis, rate, policy), d)))
                     if got is not None:
                         out[(axis, rate, policy, d)] = got

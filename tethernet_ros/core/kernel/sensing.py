@@ -175,13 +175,6 @@ def buffer_measurement(ct, sd, l, out, step) -> int:
         sd.buf[slot, c, l] = out[c]
     sd.taken[slot, l] = step
     sd.head[l] = (slot + 1) % sd.taken.shape[0]
-    return newest_slot(ct, sd, l, step)
-
-
-@njit(cache=True, inline='always', error_model='numpy')
-def newest_slot(ct, sd, l, step) -> int:
-    """The slot of lane l's newest measurement that the controller has at ``step`` (taken
-    at least the latency ago), or -1 if none has arrived yet."""
     best = -1
     best_step = -1
     for s in range(sd.taken.shape[0]):

@@ -132,7 +132,7 @@ class SensorNode(Node):
         truth = conv.measurement_from_msg(msg)
         sim_time = conv.time_from_msg(msg.header.stamp)
         sensed = self.sensor.measure(truth, int(msg.step))
-        age = 0.0 if sensed is None else (int(msg.step) - self.sensor.taken) * self.dt
+        age = self.sensor.age(msg.step, self.dt)
         out = conv.measurement_msg(sensed, msg.step, sim_time, msg.episode_id,
                                    msg.closing_displacement, self.frame_id,
                                    launched=msg.launched, age=age)

@@ -261,15 +261,14 @@ class SimNode(Node):
                 delay = t_wall0 + sim.time / rtf - time.monotonic()
                 if delay > 0:
                     time.sleep(delay)
-            mission = sim.launch_step + sim.step          # (the wait before the launch too)
-            with_markers = bool(marker_every) and mission % marker_every == 0
+            with_markers = bool(marker_every) and sim.mission_step % marker_every == 0
             if with_markers:
-                marker_step[0] = mission
+                marker_step[0] = sim.mission_step
             state = state_arrays(sim)
             outbox.put(lambda: publish_states(state, with_markers))
 
         def publish_markers(sim):
-            marker_step[0] = sim.launch_step + sim.step
+            marker_step[0] = sim.mission_step
             state = state_arrays(sim)
             outbox.put(lambda: self.stopping() or self.pub_markers.publish(markers.build(state)))
 
@@ -312,7 +311,7 @@ class SimNode(Node):
                 result = episode_result(sim, str(exc))
                 log.error(f"episode {setup.episode_id!r}: {exc}")
             sim.publish()                                   # the final state (if not yet)
-            if marker_every and marker_step[0] != sim.launch_step + sim.step:
+            if marker_every and marker_step[0] != sim.mission_step:
                 publish_markers(sim)                        # ... and its markers
             result.seed = setup.seed
             msg = conv.episode_result_msg(result, setup.episode_id, setup.seed is None, sim.time,
@@ -383,7 +382,7 @@ class SimNode(Node):
             t_step = time.monotonic()
             launched = sim.launched
             kind = "closing" if launched else "launch"
-            step, sim_time = sim.launch_step + sim.step, sim.time     # the mission's clock
+            step, sim_time = sim.mission_step, sim.time
             msg = conv.measurement_msg(truth_of(sim), step, sim_time, episode_id,
                                        closing_displacement, frame, launched=launched)
             with self._lock:
