@@ -165,6 +165,9 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                               read_only=True),
         "min_state_subscribers": number(2, "state subscribers (monitor + recorder) to wait "
                                         "for before the first step", 0, 100),
+        "min_truth_subscribers": number(2, "lockstep episodes: true-measurement subscribers "
+                                        "(sensor + recorder) to wait for before the first "
+                                        "step", 0, 100),
         "match_timeout": number(5.0, "wait at most this long for those subscribers (s, "
                                 "wall)", 0.0, 3600.0, "s"),
         "decision_timeout": number(5.0, "lockstep episodes: wait at most this long for the "
@@ -221,6 +224,10 @@ PARAMETERS: dict[str, dict[str, Param]] = {
     "sensor_node": {
         "queue_depth": number(1000, "reliable keep-last depth of the measurement topics", 1,
                               100000, read_only=True),
+        "min_measurement_subscribers": number(2, "measurement subscribers (a controller + "
+                                              "the recorder) to wait for before an "
+                                              "episode's first measurement (and every other "
+                                              "one the graph shows)", 0, 100),
         "match_timeout": number(5.0, "wait at most this long for the controller to match "
                                 "before an episode's first measurement (s, wall)", 0.0,
                                 3600.0, "s"),

@@ -110,9 +110,13 @@ class SensorNode(Node):
         # every subscriber the graph shows (the controller, the recorder) matched before
         # the first measurement goes out; match_timeout for the four topics together (the
         # simulation allows its own match_timeout more for the episode's first decision)
+        # (the controller's own subscription may not be in this node's graph yet: the
+        # measurement waits for min_measurement_subscribers at least; CI once lost an
+        # episode's first measurement to a controller discovered late)
         deadline = time.monotonic() + float(param(self, "match_timeout"))
+        least = {self.pub_measurement: int(param(self, "min_measurement_subscribers"))}
         for pub in (self.pub_measurement, self.pub_pose, self.pub_twist, self.pub_point):
-            want = self.count_subscribers(pub.topic_name)
+            want = max(least.get(pub, 0), self.count_subscribers(pub.topic_name))
             if want and not wait_for_subscribers(pub, want, max(0.0, deadline - time.monotonic()),
                                                  self.context):
                 self.get_logger().warning(f"{pub.topic_name}: {pub.get_subscription_count()} "

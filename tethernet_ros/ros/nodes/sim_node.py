@@ -288,12 +288,14 @@ class SimNode(Node):
                         f"subscriber(s) (expected {n_subs})")
         # the other topics: wait until every subscriber the graph shows (the recorder, a
         # viewer, the sensor node) is matched, so that none misses the first messages
-        pubs = [self.pub_pose, self.pub_clock, self.pub_markers]
+        # (the truth: min_truth_subscribers at least, the sensor node's subscription may
+        # not be in this node's graph yet)
+        pubs = [(self.pub_pose, 0), (self.pub_clock, 0), (self.pub_markers, 0)]
         if lockstep:
-            pubs.append(self.pub_truth)
+            pubs.append((self.pub_truth, int(self._p("min_truth_subscribers"))))
             self._wait_for_controller(timeout, not sim.launched)
-        for pub in pubs:
-            want = self.node.count_subscribers(pub.topic_name)
+        for pub, least in pubs:
+            want = max(least, self.node.count_subscribers(pub.topic_name))
             if want and not wait_for_subscribers(pub, want, timeout, self.context):
                 log.warning(f"{pub.topic_name}: {pub.get_subscription_count()} of {want} "
                             "subscribers matched at the start")
