@@ -17,6 +17,7 @@ import numpy as np
 from .core import kernel as kn
 from .core.config import SimConfig
 from .core.design import Design
+from .core.kernel.policy_table import controller_policy
 from .core.episode import CaptureSimulation, EpisodeClock, EpisodeResult, episode_result
 from .core.metrics import CQITerms
 from .core.scenario import Actions, World, build_scenario
@@ -31,7 +32,7 @@ class StateMirror:
         self.design = design
         self.config = config
         # (never advanced: its launch is left to the states it loads, not waited for)
-        mirror = config.replace(launch=replace(config.launch, kind="external")) \
+        mirror = config.replace(launch=replace(config.launch, kind=controller_policy("launch"))) \
             if config.launch.built_in else config
         self.sim = CaptureSimulation(build_scenario(design, actions, world, mirror))
         # run_simulation tests for divergence at its clock's steps (and at the end step); a

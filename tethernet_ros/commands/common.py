@@ -8,20 +8,18 @@ from pathlib import Path
 from optimizer.jsonio import json_clean
 
 from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
-from ..core.launch import LAUNCH_POLICIES
+from ..core.kernel.policy_table import choices_help, controller_policy, selectable
 from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
-from ..core.policies import POLICIES
 from ..core.sensing import NET_POINTS
 from ..core.tumble import AXES, TRANSVERSE
 from ..errors import UserError
 
 #: the tumble's named axes (core/tumble.py), for --tumble-axis
 TUMBLE_AXES = (*AXES, TRANSVERSE)
-#: the closing policies a command line may choose ('external' needs a controller node:
-#: --via ros --controller)
-CLI_POLICIES = tuple(k for k in POLICIES if k != "external")
-#: the launch policies a flag can name ('external' needs a controller: --via ros)
-CLI_LAUNCH_POLICIES = tuple(k for k in LAUNCH_POLICIES if k != "external")
+#: the closing and launch policies a flag can name (core/kernel/policy_table.py; not
+#: 'external', which needs a controller node: --via ros --controller)
+CLI_POLICIES = selectable("closing")
+CLI_LAUNCH_POLICIES = selectable("launch")
 #: --target-*-sigma flags: their NoiseModel spreads and help
 TARGET_SPREAD_FIELDS = {"--target-mass-sigma": "sigma_target_mass",
                         "--target-inertia-sigma": "sigma_target_inertia",
@@ -122,11 +120,9 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
     g.add_argument("--tumble-phase", type=float, default=None, metavar="DEG",
                    help="initial turn of the target about the spin axis (deg)")
     g.add_argument("--policy", choices=CLI_POLICIES, default=None,
-                   help="closing policy: threshold (the source's rule, default) or adaptive")
+                   help="closing policy (docs/model.md §14): " + choices_help("closing"))
     g.add_argument("--launch-policy", choices=CLI_LAUNCH_POLICIES, default=None,
-                   help="launch policy (docs/model.md §16): immediate (fire at once, the "
-                        "default) or predictive (wait until the tumbling target is predicted "
-                        "to lie across the line of sight while the net wraps it)")
+                   help="launch policy (docs/model.md §16): " + choices_help("launch"))
     g.add_argument("--launch-max-wait", type=float, default=None, metavar="S",
                    help="the chaser fires by then whatever the policy says, in [0, 3600] s "
                         "(default 360)")
@@ -379,7 +375,7 @@ def controller_config(args, config):
         return config
     from dataclasses import replace
 
-    return config.replace(policy=replace(config.policy, kind="external"))
+    return config.replace(policy=replace(config.policy, kind=controller_policy("closing")))
 
 
 def controller_label(args) -> str:

@@ -28,6 +28,7 @@ import numpy as np
 from . import detmath
 from .checks import check_choice, check_numbers
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
+from .kernel.policy_table import KERNEL, NONE, spec
 from .kernel.sensing import N_CHANNELS
 
 __all__ = ["LAUNCH_POLICIES", "LaunchConfig", "LaunchError", "LaunchPolicy", "launch_model"]
@@ -72,13 +73,14 @@ class LaunchConfig:
 
     @property
     def immediate(self) -> bool:
-        return self.kind == "immediate"
+        """Whether there is nothing to decide: the chaser fires at once."""
+        return spec("launch", self.kind).decider == NONE
 
     @property
     def built_in(self) -> bool:
-        """Whether the chaser waits and a policy of the project decides (neither
-        'immediate' nor 'external'): the kernel's, or its copy outside the kernel."""
-        return self.kind not in ("immediate", "external")
+        """Whether the chaser waits and a policy of the project decides (not 'immediate'
+        nor 'external'): the kernel's, or its copy outside the kernel."""
+        return spec("launch", self.kind).decider == KERNEL
 
 
 def launch_model(launch: LaunchConfig, dt: float, window, inertia) -> LaunchModel:

@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from ..core import kernel as kn
+from ..core.kernel.policy_table import controller_policy
 from ..core.config import SimConfig
 from ..core.episode import CaptureSimulation
 from ..core.launch import LaunchPolicy
@@ -33,8 +34,10 @@ from ..core.scenario import Actions, Scenario, World, build_scenario
 from ..core.sensing import Sensor, seed_state, true_measurement
 from .state import Setup
 
-#: the policy kind that leaves every decision to a controller outside the kernel
-EXTERNAL = "external"
+#: the policy kinds that leave the closing, and the launch, to a controller outside the
+#: kernel (core/kernel/policy_table.py)
+EXTERNAL = controller_policy("closing")
+EXTERNAL_LAUNCH = controller_policy("launch")
 
 
 def builtin_controller(node_name: str, kind: str) -> str:
@@ -78,7 +81,7 @@ def in_lockstep(asked: bool, config: SimConfig) -> bool:
     """The one rule of when an episode's policies run through ROS: when it was asked for
     (``lockstep``, a controller node), or when the configuration's closing or launch
     policy is 'external' (a controller outside the kernel decides, whatever was asked)."""
-    return bool(asked) or config.policy.kind == EXTERNAL or config.launch.kind == EXTERNAL
+    return bool(asked) or config.policy.kind == EXTERNAL or config.launch.kind == EXTERNAL_LAUNCH
 
 
 def runs_in_lockstep(setup: Setup) -> bool:
@@ -94,7 +97,7 @@ def kernel_config(config: SimConfig) -> SimConfig:
     if out.policy.kind != EXTERNAL:
         out = out.replace(policy=replace(out.policy, kind=EXTERNAL))
     if out.launch.built_in:
-        out = out.replace(launch=replace(out.launch, kind=EXTERNAL))
+        out = out.replace(launch=replace(out.launch, kind=EXTERNAL_LAUNCH))
     return out
 
 

@@ -26,6 +26,7 @@ from collections.abc import Callable
 
 from ..core.config import _LIMITS as CONFIG_LIMITS
 from ..core.config import ConfigError, SimConfig
+from ..core.kernel.policy_table import KERNEL, policies
 from ..core.noise import SPREAD_FIELDS, NoiseError, NoiseModel
 from .names import ACTION, SERVICE, TOPIC_TYPES, TOPICS
 
@@ -211,9 +212,11 @@ PARAMETERS: dict[str, dict[str, Param]] = {
                                          "target's centre of mass along each body axis (m; "
                                          "0: known)"),
         "builtin_policy": Param(True, "answer lockstep episodes' measurements with the "
-                                "closing policy of the episode's configuration (threshold or "
-                                "adaptive); false: leave the decisions to another node (a "
-                                "user's controller, docs/ros.md)", read_only=True),
+                                "policies of the episode's configuration (closing: "
+                                f"{' or '.join(policies('closing', KERNEL))}; launch: "
+                                f"{' or '.join(policies('launch', KERNEL))}); false: leave "
+                                "the decisions to another node (a user's controller, "
+                                "docs/ros.md)", read_only=True),
         "min_command_subscribers": number(3, "command subscribers (sim + monitor + recorder) "
                                           "to wait for before sending (and every other one "
                                           "the graph shows)", 0, 100),

@@ -14,6 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..core.config import SimConfig
+from ..core.kernel.policy_table import KERNEL, policies, selectable
 from ..core.noise import NoiseModel
 
 
@@ -144,13 +145,13 @@ def tumbling_cells(base: SimConfig) -> list[Cell]:
     from ..core.tumble import TumbleConfig
 
     cells = []
-    for kind in ("threshold", "adaptive"):
+    for kind in CLOSING_POLICIES:
         pol = PolicyConfig(**{**vars(base.policy), "kind": kind})
         cells.append(Cell(f"rest {kind}", f"target at rest, {kind} policy",
                           base.replace(policy=pol)))
     for axis in TUMBLE_AXES:
         for rate in TUMBLE_RATES:
-            for kind in ("threshold", "adaptive"):
+            for kind in CLOSING_POLICIES:
                 pol = PolicyConfig(**{**vars(base.policy), "kind": kind})
                 cells.append(Cell(f"{axis} {rate:g} {kind}",
                                   f"{rate:g} deg/s about the {axis} axis, {kind} policy",
@@ -167,7 +168,10 @@ LAUNCH_SENSING = {"rate_hz": 50.0, "latency": 0.06, "sigma_position": 0.02,
 #: (63 deg from the long axis), where the stage's long axis cones about its momentum
 PRECESSING_AXIS = (0.5, 1.0, 0.0)
 PRECESSING_RATES = (2.0, 8.0)
-LAUNCHES = ("immediate", "predictive")
+#: the policies the studies compare: the closing policies of the project's, and the launch
+#: policies a flag can choose (core/kernel/policy_table.py)
+CLOSING_POLICIES = policies("closing", KERNEL)
+LAUNCHES = selectable("launch")
 
 
 def launch_cells(base: SimConfig) -> list[Cell]:
@@ -189,7 +193,7 @@ def launch_cells(base: SimConfig) -> list[Cell]:
     spins += [("precessing", rate, PRECESSING_AXIS) for rate in PRECESSING_RATES]
     cells = []
     for name, rate, axis in spins:
-        for kind in ("threshold", "adaptive"):
+        for kind in CLOSING_POLICIES:
             for launch in LAUNCHES:
                 cfg = base.replace(tumble=TumbleConfig(rate_deg_s=rate, axis=axis),
                                    policy=PolicyConfig(**{**vars(base.policy), "kind": kind}),

@@ -16,11 +16,11 @@ from pathlib import Path
 
 from ..montecarlo.attitude import (ATTITUDE_BINS, attitude_counts, attitude_heads,
                                    closing_attitude_counts)
-from .cells import TUMBLE_AXES, TUMBLE_RATES
+from .cells import CLOSING_POLICIES, TUMBLE_AXES, TUMBLE_RATES
 from .paired import paired_cells
 from .report import error_bars
 
-POLICIES = ("threshold", "adaptive")
+POLICIES = CLOSING_POLICIES
 #: the reliability below which a design is said to fail under a tumble
 FLOOR = 0.90
 

@@ -23,12 +23,15 @@ from .data import E_FAVOURABLE_SINCE, E_LAUNCH_STEP, E_LAUNCHED
 from .geometry import quat_to_matrix_lane
 from .rigid import integrate_target, sub_rotation
 from .measure import sense
+from .policy_table import policies, policy_index
 from .sensing import C_OMEGA, C_QUAT
 
-#: the launch policies (LaunchModel.policy is the index); 'external': a controller outside
-#: the kernel fires (``fire``)
-LAUNCH_POLICIES = ("immediate", "predictive", "external")
-LAUNCH_IMMEDIATE, LAUNCH_PREDICTIVE, LAUNCH_EXTERNAL = range(3)
+#: the launch policies (LaunchModel.policy is the index; ``policy_table``); 'external': a
+#: controller outside the kernel fires (``fire``)
+LAUNCH_POLICIES = policies("launch")
+LAUNCH_IMMEDIATE = policy_index("launch", "immediate")
+LAUNCH_PREDICTIVE = policy_index("launch", "predictive")
+LAUNCH_EXTERNAL = policy_index("launch", "external")
 
 #: torque-free sub-steps of the prediction from the measurement to the window's start, and
 #: over the window (docs/model.md §16 measures their error)

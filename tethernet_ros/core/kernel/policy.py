@@ -10,12 +10,15 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .policy_table import policies, policy_index
 from .sensing import C_NET, C_OMEGA, C_QUAT, C_TGT
 
-#: the policies (ControlModel.policy is the index); 'external': a controller outside the
-#: kernel decides (``events.command_closing``)
-POLICIES = ("threshold", "adaptive", "external")
-POLICY_THRESHOLD, POLICY_ADAPTIVE, POLICY_EXTERNAL = range(3)
+#: the closing policies (ControlModel.policy is the index; ``policy_table``); 'external': a
+#: controller outside the kernel decides (``events.command_closing``)
+POLICIES = policies("closing")
+POLICY_THRESHOLD = policy_index("closing", "threshold")
+POLICY_ADAPTIVE = policy_index("closing", "adaptive")
+POLICY_EXTERNAL = policy_index("closing", "external")
 #: sub-steps of the adaptive policy's prediction of the stage's turn
 PREDICTION_STEPS = 8
 
