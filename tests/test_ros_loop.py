@@ -214,7 +214,8 @@ def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite
     every control step, sensor_node senses it, actuator_node's built-in predictive policy
     answers LaunchDecisions; the result is run_episode's bit for bit, launch time
     included, and replay finds and replays the decisions."""
-    tumble = TumbleConfig(rate_deg_s=2.0, axis="flat")
+    # (8 deg/s: a 7.8 s wait, 391 control steps before the launch; at 2 deg/s it was 38 s)
+    tumble = TumbleConfig(rate_deg_s=8.0, axis="flat")
     launch = LaunchConfig(kind="predictive", max_wait=120.0)
     ref = run_episode(DESIGN, NOISE.sample(SEED), CONFIG.replace(tumble=tumble, launch=launch),
                       record_trace=False)
