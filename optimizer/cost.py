@@ -48,7 +48,9 @@ __all__ = ["CostError", "Unit", "RunCost", "Draw", "read_run", "draw_episodes", 
 STAGES = ("seed points", "BO iterations", "racing", "validation", "not in the history")
 VERDICTS = ("infeasible, decided early", "infeasible at N", "feasible",
             "best: raced or validated", "not in the history")
-EPISODE_PHASES = ("flight", "wrapping", "settle")
+#: an episode's phases: the wait before a launch policy fires (docs/model.md §16), the
+#: flight to the first contact, the wrapping to closing, the settle after it
+EPISODE_PHASES = ("wait", "flight", "wrapping", "settle")
 OTHER = "not in the history"
 RECORD_FILES = {"samples.jsonl": None, "racing.jsonl": "racing", "validation.jsonl": "validation"}
 
@@ -378,7 +380,7 @@ def _rows(groups: dict, names, episodes_total: int | None = None) -> list[dict]:
 
 def cost_tables(run: RunCost, draws: list[Draw] = (), measured: list[dict] = ()) -> dict:
     """The three tables (lists of rows: name, cpu_h, share, episodes, cpu_s_per_episode)
-    and what they rest on.  Without ``measured`` (per draw: CPU s of flight, wrapping,
+    and what they rest on.  Without ``measured`` (per draw: CPU s of wait, flight, wrapping,
     settle and ``sim_s``) there is no episode-phase table, and a history's CPU is unknown
     (its shares are then of simulated time and its CPU columns NaN)."""
     phases = _phase_estimates(run, list(draws), list(measured)) if measured else None

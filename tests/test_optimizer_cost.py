@@ -94,11 +94,11 @@ def test_episode_phase_estimate_from_measured_shares(tmp_path):
     run = read_run(tmp_path)
     draws = draw_episodes(run, 4, seed=1)
     assert len(draws) == 4 and all(d.seed is not None for d in draws)
-    measured = [{"flight": 1.0, "wrapping": 0.5, "settle": 2.5, "sim_s": 25.0},
-                {"flight": 2.0, "wrapping": 1.0, "settle": 5.0, "sim_s": 25.0}] * 2
+    measured = [{"wait": 0.0, "flight": 1.0, "wrapping": 0.5, "settle": 2.5, "sim_s": 25.0},
+                {"wait": 0.0, "flight": 2.0, "wrapping": 1.0, "settle": 5.0, "sim_s": 25.0}] * 2
     t = cost_tables(run, draws, measured)
     ph = _rows(t, "episode_phases")
-    assert [ph[p]["share"] for p in EPISODE_PHASES] == pytest.approx([0.25, 0.125, 0.625])
+    assert [ph[p]["share"] for p in EPISODE_PHASES] == pytest.approx([0.0, 0.25, 0.125, 0.625])
     assert ph["settle"]["cpu_h"] * 3600 == pytest.approx(55 * 0.625)
     assert ph["settle"]["cpu_h_se"] == pytest.approx(0.0)
     assert "measured by re-simulating 4" in t["notes"][-1]
@@ -114,8 +114,8 @@ def test_history_estimate_uses_simulated_time():
     run = RunCost(None, "history", units)
     draws = [Draw(0, [0.0] * 8, None, 1, 0), Draw(1, [0.0] * 8, None, 0, 3)]
     # 0.02 CPU-s per simulated second in each: 2 s over a 100-s episode, 0.5 s over 25 s
-    measured = [{"flight": 2.0, "wrapping": 0.0, "settle": 0.0, "sim_s": 100.0},
-                {"flight": 0.1, "wrapping": 0.1, "settle": 0.3, "sim_s": 25.0}]
+    measured = [{"wait": 0.0, "flight": 2.0, "wrapping": 0.0, "settle": 0.0, "sim_s": 100.0},
+                {"wait": 0.0, "flight": 0.1, "wrapping": 0.1, "settle": 0.3, "sim_s": 25.0}]
     t = cost_tables(run, draws, measured)
     stages = _rows(t, "stages")
     assert stages["seed points"]["cpu_h"] * 3600 == pytest.approx(4.0)

@@ -11,7 +11,8 @@ from .common import SCENARIO_FLAGS, add_config_argument, config_from_args, print
 
 NAME = "cost"
 HELP = ("where a run's CPU went: by optimiser stage (seed points, BO iterations, racing, "
-        "validation), by design verdict and by episode phase (flight, wrapping, settle)")
+        "validation), by design verdict and by episode phase (launch wait, flight, "
+        "wrapping, settle)")
 
 
 def add_arguments(p):
@@ -22,8 +23,8 @@ def add_arguments(p):
                         "estimated from simulated time)")
     p.add_argument("--phases", type=int, default=20, metavar="K",
                    help="re-simulate K of the run's episodes (drawn in proportion to their CPU) "
-                        "to split an episode's CPU into flight, wrapping and settle; about 1-2 "
-                        "CPU-s each (default 20; 0: no episode-phase table)")
+                        "to split an episode's CPU into launch wait, flight, wrapping and "
+                        "settle; about 1-2 CPU-s each (default 20; 0: no episode-phase table)")
     p.add_argument("--phase-seed", type=int, default=0, metavar="S",
                    help="seed of the draw of those episodes (default 0)")
     add_config_argument(p)
@@ -31,17 +32,27 @@ def add_arguments(p):
 
 
 def measure_phases(design, sample, config) -> dict:
-    """One episode of ``design`` under noise ``sample`` (core.episode, unchanged), its
-    process CPU (s) split into flight (to the first contact with the target), wrapping (to
-    closing start) and settle (from closing start), attributed per metric interval (0.1 s
-    of simulated time) by the state at the interval's end; ``sim_s``: its simulated length
-    (s).  Building the scenario counts as flight, and so does the wait before a launch
-    policy fires (docs/model.md §16), which runs as the scenario is built."""
-    from ..core.episode import run_actions
-    from ..core.scenario import actions_for, world_for
+    """One episode of ``design`` under noise ``sample`` (core.episode's steps, unchanged),
+    its process CPU (s) split into the wait before a launch policy fires (docs/model.md
+    §16; with the building of the episode's kernel data, which it starts), flight (to the
+    first contact with the target; building the scenario counts here), wrapping (to closing
+    start) and settle (from closing start), attributed per metric interval (0.1 s of
+    simulated time) by the state at the interval's end; ``sim_s``: its simulated length
+    (s: its completion time T, which counts the wait)."""
+    from ..core.episode import CaptureSimulation, run_simulation
+    from ..core.scenario import actions_for, build_scenario, world_for
+    from ..core.sensing import seed_state
 
-    cpu = {"flight": 0.0, "wrapping": 0.0, "settle": 0.0}
+    cpu = {"wait": 0.0, "flight": 0.0, "wrapping": 0.0, "settle": 0.0}
+    start = time.process_time()
+    sc = build_scenario(design, actions_for(design, sample),
+                        world_for(design, sample, config.tumble), config)
+    sc.sensor_seed = seed_state(sample.seed)
+    built = time.process_time()
+    sc.kernel()                                           # (the launch policy waits here)
     last = [time.process_time(), "flight"]
+    cpu["flight"] += built - start
+    cpu["wait"] += last[0] - built
 
     def observer(sim):
         now = time.process_time()
@@ -50,8 +61,7 @@ def measure_phases(design, sample, config) -> dict:
         cpu[phase] += now - last[0]
         last[:] = [now, phase]
 
-    r = run_actions(design, actions_for(design, sample), world_for(design, sample, config.tumble),
-                    config, record_trace=False, seed=sample.seed, observer=observer)
+    r = run_simulation(CaptureSimulation(sc), record_trace=False, observer=observer)
     cpu[last[1]] += time.process_time() - last[0]          # the last partial interval
     return {**cpu, "sim_s": float(r.completion_time)}
 
