@@ -54,7 +54,7 @@ class LeadController(Node):
             t = m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec
             z_rel = m.net_point.z - m.target_position.z
             ahead = z_rel
-            if self.lead and self.last is not None:
+            if self.lead and self.last is not None and t > self.last[0]:   # (not a repeat)
                 ahead += self.lead * (z_rel - self.last[1]) / (t - self.last[0])
             close = ahead >= m.closing_displacement
             self.last = (t, z_rel)
