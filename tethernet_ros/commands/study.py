@@ -357,7 +357,9 @@ def _compare(args, designs) -> int:
         paired[(labels[1], d)] = PairedStats.from_samples(a, b, pick[0], pick[1])
         used.append(d)
     if not used:
-        raise UserError("compare: the two files share no design with samples of the same seeds")
+        raise UserError("compare: the two files share no design of --designs "
+                        f"({', '.join(designs)}) with samples of the same seeds (compare "
+                        "reads the reference designs' samples only)")
     name = args.name or "compare"
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
