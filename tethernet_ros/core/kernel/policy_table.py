@@ -37,7 +37,7 @@ POLICY_TABLE = (
                "and at the net's apex"),
     PolicySpec("external", "closing", CONTROLLER, (), (),
                "a controller outside the kernel closes (a ROS node: --via ros --controller)"),
-    PolicySpec("immediate", "launch", NONE, ("max_wait",), (),
+    PolicySpec("immediate", "launch", NONE, (), (),
                "fire at once (the default)"),
     PolicySpec("predictive", "launch", KERNEL, ("max_wait", "max_tilt_deg", "confirm_time"),
                ("events[E_FAVOURABLE_SINCE]",),
