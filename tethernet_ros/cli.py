@@ -24,8 +24,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from .core.config import ConfigError
     from .core.design import DesignError
     from .core.noise import NoiseError
+    from .core.tug import TugError
 
-    return (UserError, DesignError, ConfigError, NoiseError, FileNotFoundError)
+    return (UserError, DesignError, ConfigError, NoiseError, TugError, FileNotFoundError)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -104,6 +104,15 @@ def summary_text(label, seed_label, r, wall, via, bag_path, png) -> str:
     ]
     if r.failure_reason:
         lines.append(f"  failure reason     {r.failure_reason}")
+    tug = getattr(r, "tug", None)
+    if tug:
+        lines.append(f"  tug test           {'HELD' if tug['held'] else 'LOST'} under "
+                     f"{tug['peak_force']:g} N  (peak tether tension {fmt(tug['peak_tension'], ' N', 0)}, "
+                     f"largest slip {fmt(tug['largest_slip'], ' m', 2)}, follow ratio "
+                     f"{fmt(tug['follow_ratio'], '', 2)}, slid off {fmt(tug['slid_share'] * 100, ' %', 1)}, "
+                     f"closed pairs {tug['closed_pairs']})")
+        if tug["reason"]:
+            lines.append(f"  tug verdict        {tug['reason']}")
     if bag_path:
         lines.append(f"  bag                {bag_path}")
     if png:

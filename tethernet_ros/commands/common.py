@@ -38,6 +38,7 @@ SCENARIO_FLAGS = {
     "--target-attitude": ("target", "attitude_deg"),
     "--launch-policy": ("launch", "kind"), "--launch-max-wait": ("launch", "max_wait"),
     "--launch-max-tilt": ("launch", "max_tilt_deg"), "--launch-confirm": ("launch", "confirm_time"),
+    "--tug": ("tug", "peak_tension"),
 }
 
 
@@ -132,6 +133,11 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
     g.add_argument("--launch-confirm", type=float, default=None, metavar="S",
                    help="the predictive policy fires once the attitude has been favourable at "
                         "every measurement for this long, in [0, 60] s (default 1)")
+    g.add_argument("--tug", type=float, default=None, metavar="N",
+                   help="after the settle time, pull the tether with a thrust ramped to N "
+                        "newtons and judge whether the net holds the target (docs/model.md "
+                        "§17); sets tug: {enabled: true, peak_tension: N} and, unless the "
+                        "config sets it, tether_order: chain")
     g.add_argument("--net-point", choices=NET_POINTS, default=None,
                    help="the net's sensed reference point (default com)")
     g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",
@@ -211,6 +217,9 @@ def scenario_overrides(args) -> tuple[dict, dict]:
             continue
         values.setdefault(group, {})[field] = v
         flags[f"{group}.{field}"] = flag
+        if flag == "--tug":
+            values[group]["enabled"] = True
+            flags[f"{group}.enabled"] = flag
     return values, flags
 
 
@@ -300,6 +309,8 @@ def config_from_args(args, **overrides):
                 base = {k: v for k, v in base.items() if k == "attitude_deg"}
             data[group] = {**base, **fields_}
         where.update(flags)
+    if getattr(args, "tug", None) is not None and "tether_order" not in data:
+        data["tether_order"] = "chain"          # the tug test needs the straight tether
     data.update(overrides)
     try:
         return SimConfig.from_dict(data)

@@ -17,11 +17,12 @@ from .launch import LaunchConfig
 from .policies import PolicyConfig
 from .sensing import SensingConfig
 from .target import TargetConfig
+from .tug import TugConfig
 from .tumble import TumbleConfig
 
 #: nested settings: field -> its dataclass (a mapping in YAML / JSON)
 _NESTED = {"target": TargetConfig, "tumble": TumbleConfig, "sensing": SensingConfig,
-           "policy": PolicyConfig, "launch": LaunchConfig}
+           "policy": PolicyConfig, "launch": LaunchConfig, "tug": TugConfig}
 
 
 class ConfigError(ValueError):
@@ -75,6 +76,7 @@ _CHOICES = {
     "drawstring_corners": ("net", "corner_mass"),
     "integrator": ("explicit", "implicit"),
     "implicit_impacts": ("rebound", "inelastic"),
+    "tether_order": ("reversed", "chain"),
 }
 
 
@@ -96,6 +98,8 @@ class SimConfig:
     v / omega_c) and damping ratio; sphere radii of net/tether nodes and corner masses (m).
     Chaser: free-floating cube of chaser_mass (kg) and chaser_side (m); the winch sits at the
     launch point.
+    Tug test (``tug``, off by default): after the settle time the chaser pulls the
+    tether and the capture holds or not (core/tug.py, docs/model.md §17).
     Output: metric_rate (Hz) of the CQI / n_L trace, state_rate (Hz) of node positions.
     max_speed (m/s): any body faster than this marks the episode as diverged.
     Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
@@ -126,6 +130,12 @@ class SimConfig:
     leaves with the restitution of the Kelvin-Voigt contact law, as the continuous model
     and the explicit method have it) or "inelastic" (none: what a step longer than the
     contact's period gives by itself).
+    tether_order: where the paid-out main tether's lumped masses lie on the line from the
+    winch to the net's centre: "reversed" (each mass at the place of its mirror image in
+    the chain, so the tether locked at closing zigzags, its first and last segments each
+    spanning most of the line: the model of every result before 2026-12-06, kept so that
+    they reproduce) or "chain" (in the chain's order: the locked tether is straight, its
+    rest length the winch-to-centre distance).  docs/model.md §5.
     """
 
     dt: float = 0.0
@@ -171,11 +181,13 @@ class SimConfig:
     implicit_iterations: int = 4
     implicit_dt: float = 1e-3
     implicit_impacts: str = "rebound"
+    tether_order: str = "reversed"
     target: TargetConfig = field(default_factory=TargetConfig)
     tumble: TumbleConfig = field(default_factory=TumbleConfig)
     sensing: SensingConfig = field(default_factory=SensingConfig)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     launch: LaunchConfig = field(default_factory=LaunchConfig)
+    tug: TugConfig = field(default_factory=TugConfig)
 
     def __post_init__(self):
         for name, (lo, hi, what) in _LIMITS.items():
@@ -205,6 +217,17 @@ class SimConfig:
             elif not isinstance(v, cls):
                 raise ConfigError(f"config field '{name}': got {v!r}; must be a mapping of "
                                   f"{cls.__name__} fields")
+        if self.tug.enabled and self.integrator != "implicit":
+            raise ConfigError("config field 'tug.enabled': the tug test needs the implicit "
+                              f"method (integrator 'implicit'); got integrator {self.integrator!r}")
+        if self.tug.enabled and not self.tug.peak_tension > 0:
+            raise ConfigError("tug field 'peak_tension': got 0; must be a force > 0 N when the "
+                              "tug test is on (it has no default: no source at hand gives a "
+                              "removal tug's thrust; docs/model.md §17)")
+        if self.tug.enabled and self.tether_order != "chain":
+            raise ConfigError("config field 'tug.enabled': the tug test needs tether_order "
+                              f"'chain'; got {self.tether_order!r} (the 'reversed' tether is "
+                              "locked with about 2.6 times its straight length, docs/model.md §5)")
         for name in ("dt", "implicit_dt"):
             step = getattr(self, name)
             if step > 0:

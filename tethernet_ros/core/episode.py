@@ -21,6 +21,8 @@ from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, bu
                        world_for)
 from .kernel.model import steps_every
 from .kernel.sensing import seed_state
+from .lumped import Threads
+from .tug import TugTest
 
 
 class CaptureSimulation:
@@ -42,6 +44,10 @@ class CaptureSimulation:
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
+        #: the tug test after the settle time (None: off), and what was read when it began
+        self.tug = (TugTest(self, self.cfg.tug, Threads.of(scenario.design, self.cfg).tether_radius)
+                    if self.cfg.tug.enabled else None)
+        self.settled: tuple[CQITerms, int, int] | None = None
 
     # -- state ---------------------------------------------------------------------
     @property
@@ -85,9 +91,28 @@ class CaptureSimulation:
         return int(self.s.drawstring.locked.sum())
 
     def end_step(self) -> int:
-        """Step at which the episode ends as things stand now."""
+        """Step at which the episode, or its current phase, ends as things stand now: the
+        horizon without closing, the settle time after it, then the tug test's phases."""
         cs = self.closing_step
-        return self.horizon_steps if cs is None else cs + self.settle_steps
+        if cs is None:
+            return self.horizon_steps
+        if self.tug is not None and self.tug.started:
+            return self.tug.end_step()
+        return cs + self.settle_steps
+
+    def next_phase(self) -> bool:
+        """At :meth:`end_step`: begin the next phase, if any (True: the episode goes on).
+        At the end of the settle time the capture's verdict state is read (``settled``) and
+        the tug test, when on, starts; its phases follow (``tug.TugTest``)."""
+        if not self.closing_active or self.tug is None:
+            return False
+        if not self.tug.started:
+            self.settled = (self.cqi(), self.locked_pairs, self.step)
+            self.tug.start()
+            return True
+        if self.tug.outcome is None:
+            return self.tug.advance_phase()
+        return False
 
     @property
     def launched(self) -> bool:
@@ -143,7 +168,10 @@ class CaptureSimulation:
         if not (np.all(np.isfinite(b.x)) and np.all(np.isfinite(b.v))
                 and np.all(np.isfinite(t.pos)) and np.all(np.isfinite(t.quat))):
             return f"simulation diverged: non-finite state at t = {self.time:.3f} s"
-        vmax = float(np.sqrt((b.v**2).sum(axis=1)).max())
+        v = b.v
+        if self.tug is not None and self.tug.started:    # the tug test: in the chaser's frame
+            v = v - v[self.s.tether.winch]
+        vmax = float(np.sqrt((v**2).sum(axis=1)).max())
         if vmax > self.cfg.max_speed:
             return (f"simulation diverged: body speed {vmax:.1f} m/s > max_speed "
                     f"{self.cfg.max_speed:g} m/s at t = {self.time:.3f} s")
@@ -217,7 +245,7 @@ class EpisodeTrace:
 RESULT_FIELDS: tuple[str, ...] = ("success", "settled_cqi", "locked_pairs", "closing_time",
                                   "completion_time", "mass", "failure_reason", "wall_time",
                                   "seed", "steps", "max_penetration", "settled_terms",
-                                  "launch_time")
+                                  "launch_time", "tug")
 
 
 @dataclass
@@ -238,6 +266,7 @@ class EpisodeResult:
     max_penetration: float
     settled_terms: dict | None = None
     launch_time: float = 0.0
+    tug: dict | None = None
     trace: EpisodeTrace | None = None
 
     def to_dict(self, with_trace: bool = False) -> dict:
@@ -307,9 +336,14 @@ def after_stop(sim: CaptureSimulation, recorder: EpisodeRecorder) -> tuple[bool,
     ended on divergence (with its reason) or at its end step, else its samples taken."""
     reason = sim.divergence()
     if reason:
+        if sim.settled is not None:          # during the tug test: the capture's verdict stands
+            sim.tug.judge(f"the test ended early: {reason}")
+            return True, ""
         return True, reason
     recorder.sample(sim.step)
-    return sim.step >= sim.end_step(), ""
+    if sim.step < sim.end_step():
+        return False, ""
+    return not sim.next_phase(), ""
 
 
 def run_simulation(sim: CaptureSimulation, record_trace: bool = True, observer=None) -> EpisodeResult:
@@ -343,18 +377,20 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         reason = f"closing never triggered within the {cfg.horizon:g} s horizon"
         completion = sim.launch_time + cfg.horizon
     else:
-        terms = sim.cqi()
+        terms, n_l, step = (sim.settled if sim.settled is not None
+                            else (sim.cqi(), sim.locked_pairs, sim.step))
         settled = terms.to_dict()
-        cqi_val, n_l = terms.cqi, sim.locked_pairs
+        cqi_val = terms.cqi
         success, reason = capture_verdict(cqi_val, n_l, cfg.success_cqi, cfg.success_locked_pairs)
-        completion = sim.time
+        completion = (sim.launch_step + step) * sim.dt
     return EpisodeResult(
         success=success, settled_cqi=cqi_val, locked_pairs=n_l,
         closing_time=sim.closing_time if sim.closing_active else math.nan,
         completion_time=completion, mass=mass, failure_reason=reason,
         wall_time=wall_time, seed=None, steps=sim.step,
         max_penetration=sim.max_penetration, settled_terms=settled,
-        launch_time=sim.launch_time, trace=trace)
+        launch_time=sim.launch_time, trace=trace,
+        tug=None if sim.tug is None or sim.tug.outcome is None else sim.tug.outcome.to_dict())
 
 
 def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,

@@ -12,7 +12,7 @@ import numpy as np
 from . import detmath
 from . import kernel as kn
 from .kernel.data import lane_of
-from .kernel.model import reference_point, steps_every
+from .kernel.model import TETHER_ORDERS, reference_point, steps_every
 from .kernel.sensing import TARGET_POSITIONS, seed_state, sensor_slots
 from .kernel.state import bind_lane
 from .launch import LaunchConfig, LaunchError, launch_model
@@ -25,6 +25,7 @@ from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
 from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses, other_threads,
                      stowed_state, thread_damping)
 from .noise import NoiseSample, check_orientation_axis, corner_velocities
+from .tug import tug_params
 from .shapes import Shape, target_shape
 
 
@@ -312,7 +313,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                                  maxdist=np.zeros(len(ring_pairs)),
                                  lock_step=np.full(len(ring_pairs), -1, dtype=np.int64)),
         tether=kn.TetherModel(nodes=np.arange(lay.tether0, lay.chaser, dtype=np.int64),
-                              links=other.tether_links, centre=lay.centre, winch=lay.chaser),
+                              links=other.tether_links, centre=lay.centre, winch=lay.chaser,
+                              order=TETHER_ORDERS.index(cfg.tether_order)),
         target_body=kn.TargetBody(
             pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
             ang_mom=ang_mom, inertia=tgt_inertia, inv_mass=1.0 / tgt_mass, com_offset=tgt_com,
@@ -328,7 +330,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb, c=c_all,
                                        k_contact=k_contact, c_contact=c_contact)
     sc.dt = cfg.step_for(sc.stable_step)
-    sc.set_params(dt=sc.dt)
+    sc.set_params(dt=sc.dt, **tug_params(cfg.tug, th.tether_radius, sc.dt))
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
     sc.launch = launch_model(cfg.launch, sc.dt,
                              planned_window(design, cfg) if cfg.launch.built_in else None,

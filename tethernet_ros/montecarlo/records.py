@@ -77,11 +77,12 @@ class SampleResult:
     attempts: int = 1
     trace: dict | None = None
     launch_time: float = 0.0
+    tug: dict | None = None
 
     # fields that must agree bit for bit whichever backend ran the sample
     DETERMINISTIC = ("key", "seed", "success", "settled_cqi", "locked_pairs", "closing_time",
                      "completion_time", "mass", "failure_reason", "category", "steps",
-                     "max_penetration", "trace", "launch_time")
+                     "max_penetration", "trace", "launch_time", "tug")
 
     def outcome(self) -> dict:
         """The deterministic part (no wall time, index or attempt count), for comparisons."""
@@ -126,7 +127,8 @@ def sample_result(task: EpisodeTask, episode, cpu_time: float = 0.0, trace: dict
                               else max_penetration),
         wall_time=float(episode.wall_time if wall_time is None else wall_time),
         cpu_time=cpu_time, attempts=task.attempt + 1, trace=trace,
-        launch_time=float(getattr(episode, "launch_time", 0.0)))
+        launch_time=float(getattr(episode, "launch_time", 0.0)),
+        tug=getattr(episode, "tug", None))
 
 
 def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:

@@ -17,7 +17,8 @@ the step alone would make every impact inelastic, where the contact law rebounds
 restitution e(zeta) (0.73 at zeta = 0.106; ``materials.kelvin_voigt_restitution``).  With
 ``Params.restitution`` = e > 0, a new impact (a body without contact impulse in the last
 step, approaching at v_n) leaves the step at -e v_n, as the explicit method resolves it.
-Ratchet locks of the drawstring are rigid limits.  The closing force is an external force.
+Ratchet locks of the drawstring are rigid limits.  The closing force and the tug test's
+thrust (``tug``) are external forces.
 
 The impulses are found by projected Gauss-Seidel sweeps (``Model.iterations``),
 warm-started from the last step's impulses (``Data.warm``).  The grid threads
@@ -46,6 +47,7 @@ from .tether import pay_out_tether
 from .thread_rows import (apply_gathered, prepare_grid_rows, prepare_link_rows, sweep_grid,
                           sweep_links)
 from .threads import gather_thread_forces
+from .tug import record_tether_tension, tug_thrust
 
 
 @njit(cache=True, nogil=True, error_model='numpy')
@@ -80,6 +82,8 @@ def advance_implicit(model, data, scr, n_steps):
                     v[i, 0, l] += hw * F[i, 0, l]
                     v[i, 1, l] += hw * F[i, 1, l]
                     v[i, 2, l] += hw * F[i, 2, l]
+            # the tug test's thrust on the chaser (once the host has started it)
+            tug_thrust(model, data, l, h)
             # constraint rows, warm-started
             prepare_contact_rows(model, data, scr, l)
             clear_inactive_contacts(data, l)
@@ -98,6 +102,7 @@ def advance_implicit(model, data, scr, n_steps):
                 if ev[E_CLOSING_ACTIVE, l] == 1 and ratchet_model:
                     sweep_locks(model, data, scr, l)
         for l in range(K):
+            record_tether_tension(model, data, l, h)
             # the contacts' impulses and moments on the target, at the step's contact points
             px, py, pz, lx, ly, lz = contact_reaction(data, scr, l)
             # positions; the paid-out tether follows the winch and net centre

@@ -19,11 +19,13 @@ from .broadphase import BROAD_ON
 #: ("frequency" model) and damping ratio; tether_lin_density (kg/m), tether_EA (N),
 #: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
 #: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
-#: restitution: the implicit method's coefficient of restitution of a new impact (0: none).
+#: restitution: the implicit method's coefficient of restitution of a new impact (0: none);
+#: tug_force (N), tug_ramp (steps): the tug test's peak thrust on the chaser and the steps
+#: of its ramp from zero (``tug``; acting only once the host starts it, ``E_TUG_STEP``).
 Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
                               "contact_model omega_contact zeta_contact "
                               "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
-                              "lock_model restitution")
+                              "lock_model restitution tug_force tug_ramp", defaults=(0.0, 1.0))
 
 #: Modelling choices held as small integers in Params (the index of the name).
 CONTACT_MODELS = ("frequency", "hertz")
@@ -69,9 +71,15 @@ ControlModel = namedtuple("ControlModel", "policy period latency ref_nodes ref_w
                                           "sigma_attitude sigma_rate sigma_velocity "
                                           "closing_time apex")
 
-#: The main tether: nodes (T,) its lumped masses, links (T + 1,) its segments (indices into
-#: the other threads), centre the net's centre node, winch the body carrying the winch.
-TetherModel = namedtuple("TetherModel", "nodes links centre winch")
+#: The main tether: nodes (T,) its lumped masses in chain order from the net's centre,
+#: links (T + 1,) its segments (indices into the other threads), centre the net's centre
+#: node, winch the body carrying the winch; order: where the paid-out tether places its
+#: masses (TETHER_ORDERS: 0 "reversed", node k the (k+1)-th from the winch, against the
+#: chain, as every result before 2026-12-06 had it; 1 "chain", node k the (k+1)-th from
+#: the centre; docs/model.md §5).
+TetherModel = namedtuple("TetherModel", "nodes links centre winch order", defaults=(0,))
+TETHER_ORDERS = ("reversed", "chain")
+TETHER_REVERSED, TETHER_CHAIN = 0, 1
 
 #: The target's constant: its shape (``geometry.TargetGeometry``); its mass properties are
 #: per lane (``data.TargetData``: the noise model may draw them, docs/noise.md §1).
@@ -132,7 +140,7 @@ def build_model(bodies, grid: GridModel, links, drawstring, tether: TetherModel,
         links=LinkModel(pairs=links.pairs, slots=links.slots, signs=links.signs),
         ring=RingModel(pairs=drawstring.pairs),
         tether=TetherModel(nodes=tether.nodes, links=tether.links, centre=int(tether.centre),
-                           winch=int(tether.winch)),
+                           winch=int(tether.winch), order=int(tether.order)),
         target=TargetModel(geometry=target_body.geometry),
         control=control, launch=launch, params=params, iterations=int(iterations),
         broadphase=int(broadphase))

@@ -8,13 +8,14 @@ import numpy as np
 from numba import njit
 
 from .data import CONTACT_ONCE_OUTSIDE
-from .model import DAMPING_ELEMENT
+from .model import DAMPING_ELEMENT, TETHER_REVERSED
 
 
 @njit(cache=True, inline='always', error_model='numpy')
 def pay_out_tether(model, data, l):
     """Lane l: place the tether's masses on the straight line winch -> net centre, evenly,
-    with the matching interpolated velocities."""
+    with the matching interpolated velocities: node k the (k+1)-th from the winch
+    (``TETHER_REVERSED``, against the chain's order) or from the centre (``TETHER_CHAIN``)."""
     x = data.bodies.x
     v = data.bodies.v
     te = model.tether
@@ -22,7 +23,7 @@ def pay_out_tether(model, data, l):
     cn = te.centre
     n_tether = te.nodes.shape[0]
     for k in range(n_tether):
-        f = (k + 1.0) / (n_tether + 1.0)
+        f = ((k + 1.0) if te.order == TETHER_REVERSED else (n_tether - k + 0.0)) / (n_tether + 1.0)
         t = te.nodes[k]
         for c in range(3):
             x[t, c, l] = x[wb, c, l] + f * (x[cn, c, l] - x[wb, c, l])

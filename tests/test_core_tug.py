@@ -1,0 +1,112 @@
+"""The tug test (core/tug.py, docs/model.md §17) and the tether's order (§5): the thrust's
+impulse, the verdicts on a held and a lost capture, the refusals, and that nothing changes
+while the test is off."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from tethernet_ros.core.config import ConfigError, SimConfig
+from tethernet_ros.core.design import load_design
+from tethernet_ros.core.episode import CaptureSimulation, run_episode, run_simulation
+from tethernet_ros.core.scenario import scenario_for
+from tethernet_ros.core.tug import TugConfig, TugError, breaking_load
+
+#: short phases: a 2 s settle, a 2 s ramp and a 3 s hold (the protocol's own are 20, 5, 10 s)
+SHORT = dict(settle_time=2.0, tether_order="chain")
+
+
+def _tug(peak=4000.0, **kw):
+    return TugConfig(enabled=True, peak_tension=peak, ramp_time=2.0, hold_time=3.0, **kw)
+
+
+@pytest.fixture(scope="module")
+def mass_min():
+    return load_design("mass-min")
+
+
+def test_chain_tether_is_locked_straight(mass_min):
+    """At closing the 'chain' tether's rest length is the winch-to-centre distance (its
+    masses evenly on the line, in chain order); the 'reversed' one zigzags, each of its
+    end segments spanning most of the line."""
+    for order in ("chain", "reversed"):
+        sc = scenario_for(mass_min, None, SimConfig(settle_time=0.0, tether_order=order))
+        sim = CaptureSimulation(sc)
+        run_simulation(sim, record_trace=False)
+        rest = sc.links.rest[sc.tether.links]
+        x = sc.bodies.x
+        line = float(np.linalg.norm(x[sc.tether.centre] - x[sc.tether.winch]))
+        if order == "chain":
+            assert rest.sum() == pytest.approx(line, rel=1e-3)
+            assert rest.max() / rest.min() == pytest.approx(1.0, rel=1e-6)
+        else:
+            assert rest.sum() > 2.0 * line
+            assert rest[0] > 0.8 * line and rest[-1] > 0.8 * line
+
+
+def test_tug_off_changes_nothing(mass_min):
+    """Settings of a test that is off change no bit of the episode."""
+    base = SimConfig(**SHORT)
+    off = base.replace(tug=dataclasses.replace(_tug(), enabled=False))
+    a = run_episode(mass_min, None, base, record_trace=False)
+    b = run_episode(mass_min, None, off, record_trace=False)
+    assert b.tug is None
+    for k in ("success", "settled_cqi", "locked_pairs", "closing_time", "completion_time",
+              "steps", "max_penetration"):
+        assert getattr(a, k) == getattr(b, k), k
+
+
+def test_thrust_impulse_is_the_momentum_gained(mass_min):
+    """The thrust is the only external force during the test: the system's linear momentum
+    (every body with mass and the target) gains its impulse, F (h (R + 1) / 2 + hold) for a
+    ramp of R steps, along the pull, and the verdict of the settle time is kept."""
+    cfg = SimConfig(**SHORT, tug=_tug(1000.0))
+    sc = scenario_for(mass_min, None, cfg)
+    sim = CaptureSimulation(sc)
+    res = run_simulation(sim, record_trace=False)
+    assert res.tug is not None
+    h = sim.dt
+    impulse = 1000.0 * (h * (sim.tug.ramp_steps + 1) / 2.0 + sim.tug.hold_steps * h)
+    gained = sim.linear_momentum() - sim.tug.start_momentum
+    u = sim.tug.start_direction
+    assert float(gained @ u) == pytest.approx(impulse, rel=0.01)
+    assert res.completion_time == pytest.approx(res.closing_time + 2.0, abs=2 * h)
+
+
+def test_held_and_false_capture(mass_min):
+    """The nominal mass-min capture holds under 4 kN; a capture the CQI calls a success
+    (closing early, ejection slower along the line of sight) lets go: its net slides off and
+    the target stays behind (a false capture, the source's warning)."""
+    cfg = SimConfig(**SHORT, tug=_tug(4000.0))
+    held = run_episode(mass_min, None, cfg, record_trace=False)
+    assert held.success and held.tug["held"], held.tug
+    assert held.tug["follow_ratio"] > 0.9
+    assert 0.0 < held.tug["peak_tension"] <= breaking_load(cfg.tug, 0.002) * 1.0
+    lost_design = dataclasses.replace(mass_min, d_c=-2.5, V_e=(3.5, 3.5, 5.0))
+    lost = run_episode(lost_design, None, cfg, record_trace=False)
+    assert lost.success, "the CQI judges this capture a success"
+    assert not lost.tug["held"]
+    assert "did not follow" in lost.tug["reason"]
+    assert abs(lost.tug["follow_ratio"]) < 0.1
+    assert lost.tug["slid_share"] == 1.0 and lost.tug["largest_slip"] > 10.0
+
+
+def test_tug_refusals():
+    """Each bad setting is refused naming its field and what is allowed."""
+    with pytest.raises(ConfigError, match="peak_tension"):
+        SimConfig(tether_order="chain", tug=TugConfig(enabled=True))
+    with pytest.raises(ConfigError, match="tether_order"):
+        SimConfig(tug=_tug())
+    with pytest.raises(ConfigError, match="integrator"):
+        SimConfig.preset("spec-text", tether_order="chain", tug=_tug())
+    with pytest.raises(TugError, match="hold_time"):
+        TugConfig(hold_time=0.0)
+    with pytest.raises(ConfigError, match="tug field 'min_follow'"):
+        SimConfig.from_dict({"tug": {"min_follow": 2.0}})
+    with pytest.raises(ConfigError, match="tug.nope"):
+        SimConfig.from_dict({"tug": {"nope": 1}})
+    design = load_design("mass-min")
+    with pytest.raises(TugError, match="breaking load"):
+        scenario_for(design, None, SimConfig(**SHORT, tug=_tug(1e6)))

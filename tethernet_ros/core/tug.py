@@ -1,0 +1,274 @@
+"""The tug test (docs/model.md §17): does the closed net hold its target when the chaser
+pulls?  An optional phase after the settle time, off by default (every result without it
+is unchanged bit for bit).
+
+When the settle time has passed and the capture's verdict by the CQI has been read, the
+chaser thrusts away from the target's centre of mass (``kernel.tug``): the force ramps
+linearly from zero to the peak tension over ``ramp_time`` and is held for ``hold_time``.
+The tether, the net and its contact with the target carry it; nothing else is added.
+
+The capture **holds** when, at the end of the test, all three are true:
+
+- *the target follows*: over the hold, the target's displacement along the pull is at
+  least ``min_follow`` of the displacement of the whole system's centre of mass (chaser,
+  tether, net and target; it moves under the thrust alone, without the oscillations of
+  the tether and net between chaser and target): a held target moves with it, ratio near
+  1; a target the net has let go stays behind, near 0;
+- *the net stays closed*: at least ``success_locked_pairs`` drawstring pairs (the count
+  the source's criterion asks for at the settle time) are closer than twice the lock
+  distance (a pair latched at the lock distance hovers about it; an open pair is a third
+  of the net's side apart, 5-7 m for the reference designs);
+- *the net stays on*: of the net's mass that lay within one mesh side of the target's
+  surface when the test began, at most ``max_slid_share`` has moved farther than that.
+
+Reported with each verdict: the peak tether tension (N, any step), the largest slip (m:
+the largest growth of a net node's distance to the target's surface), the follow ratio,
+the share slid off and the closed pairs.  Units: SI (m, s, kg, N, Pa).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from .checks import check_numbers
+from .kernel.data import E_TUG_STEP
+
+__all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "peak_force",
+           "tug_params"]
+
+#: (low, high, words) of the numeric settings
+_LIMITS = {
+    "peak_tension": (0.0, 1e7, "a force in [0, 1e7] N, and > 0 when the test is on"),
+    "tether_strength": (1e8, 1e10, "a tensile strength in [1e8, 1e10] Pa"),
+    "ramp_time": (0.0, 600.0, "a time in [0, 600] s"),
+    "hold_time": (0.1, 600.0, "a time in [0.1, 600] s"),
+    "min_follow": (0.0, 1.0, "a ratio in [0, 1]"),
+    "max_slid_share": (0.0, 1.0, "a share in [0, 1]"),
+}
+
+
+class TugError(ValueError):
+    """A tug setting is outside its allowed range (message names the field)."""
+
+
+@dataclass(frozen=True)
+class TugConfig:
+    """The tug test's settings (docs/model.md §17 gives each one's source).
+
+    enabled: run the test after the settle time (default off); peak_tension (N): the
+    thrust held after the ramp (no default: it must be given when the test is on, and at
+    most the main tether's breaking load); tether_strength (Pa):
+    the tether's tensile strength, default 3.3e9 Pa, the lower end of 3.3-3.9 GPa for
+    Dyneema SK75/SK78 fibre (DSM fact sheet CIS YA100, 2010; a braided rope keeps only part
+    of its fibre's strength, so this bounds the rope's strength from above); ramp_time (s),
+    hold_time (s): the test's protocol; min_follow, max_slid_share: the verdict's
+    thresholds (the protocol's choices, not physical constants; docs/model.md §17)."""
+
+    enabled: bool = False
+    peak_tension: float = 0.0
+    tether_strength: float = 3.3e9
+    ramp_time: float = 5.0
+    hold_time: float = 10.0
+    min_follow: float = 0.5
+    max_slid_share: float = 0.5
+
+    def __post_init__(self):
+        if not isinstance(self.enabled, bool):
+            raise TugError(f"tug field 'enabled': got {self.enabled!r}; must be true or false")
+        check_numbers("tug", self, _LIMITS, TugError)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def breaking_load(tug: TugConfig, tether_radius: float) -> float:
+    """The main tether's breaking load (N): tether_strength times its cross-section
+    pi r^2 (``tether_radius`` in m)."""
+    return tug.tether_strength * math.pi * tether_radius * tether_radius
+
+
+def peak_force(tug: TugConfig, tether_radius: float) -> float:
+    """The test's peak thrust (N): ``peak_tension``; TugError naming it when it exceeds the
+    main tether's breaking load (a thrust the tether cannot carry)."""
+    limit = breaking_load(tug, tether_radius)
+    if tug.peak_tension > limit:
+        raise TugError(f"tug field 'peak_tension': got {tug.peak_tension:g} N; must be at most "
+                       f"the main tether's breaking load {limit:.4g} N (tether_strength "
+                       f"{tug.tether_strength:g} Pa times pi r^2, r = {tether_radius:g} m)")
+    return tug.peak_tension
+
+
+def tug_params(tug: TugConfig, tether_radius: float, dt: float) -> dict:
+    """The kernel's tug parameters (``kernel.Params`` tug_force (N), tug_ramp (steps, at
+    least 1)) for a step of ``dt`` s; zero force when the test is off."""
+    if not tug.enabled:
+        return {"tug_force": 0.0, "tug_ramp": 1.0}
+    return {"tug_force": float(peak_force(tug, tether_radius)),
+            "tug_ramp": float(max(1, int(round(tug.ramp_time / dt))))}
+
+
+@dataclass
+class TugOutcome:
+    """The test's verdict and its measures: held (bool), reason ('' when held), peak
+    tether tension (N), largest slip (m), follow ratio, share slid off, closed pairs, the
+    peak thrust (N) and the test's duration (s)."""
+
+    held: bool
+    reason: str
+    peak_tension: float
+    largest_slip: float
+    follow_ratio: float
+    slid_share: float
+    closed_pairs: int
+    peak_force: float
+    duration: float
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        for k, v in d.items():
+            if isinstance(v, float) and not math.isfinite(v):
+                d[k] = None
+        return d
+
+
+class TugTest:
+    """The test's phases for one episode (``episode.CaptureSimulation``): the host starts it
+    at the end of the settle time (:meth:`start`), marks the end of the ramp
+    (:meth:`end_ramp`) and judges it at its end (:meth:`judge`), reading the episode's
+    arrays; the kernel applies the thrust and keeps the peak tension."""
+
+    def __init__(self, sim, tug: TugConfig, tether_radius: float):
+        self.sim = sim
+        self.cfg = tug
+        self.force = peak_force(tug, tether_radius)
+        dt = sim.dt
+        self.ramp_steps = int(round(sim.s.params.tug_ramp)) if tug.ramp_time > 0 else 0
+        self.hold_steps = max(1, int(round(tug.hold_time / dt)))
+        self.start_step: int | None = None
+        self.ramp_end_step: int | None = None
+        self.outcome: TugOutcome | None = None
+        self._near0 = None
+        self._dist0 = None
+        self._system_hold0 = None
+        self._target_hold0 = None
+        self._pull = None
+        self.start_momentum = None
+        self.start_direction = None
+
+    @property
+    def started(self) -> bool:
+        return self.start_step is not None
+
+    def end_step(self) -> int:
+        """The step at which the current phase ends (ramp, then hold)."""
+        if self.ramp_end_step is None:
+            return self.start_step + self.ramp_steps
+        return self.ramp_end_step + self.hold_steps
+
+    # -- what the host calls -------------------------------------------------------------
+    def start(self) -> None:
+        """Start the test at the simulation's current step."""
+        sim = self.sim
+        self.start_step = sim.step
+        sim.s.events[E_TUG_STEP] = sim.step
+        sim.data.tug_peak[sim.s.lane] = 0.0
+        #: the system's linear momentum (kg m/s) and the pull's direction when it began
+        self.start_momentum = sim.linear_momentum().copy()
+        chaser, target = self._chaser_target()
+        self.start_direction = (chaser - target) / max(float(np.linalg.norm(chaser - target)), 1e-12)
+        self._dist0 = self._surface_distances()
+        self._near0 = self._dist0 <= self._mesh_side()
+        if self.ramp_steps == 0:
+            self.end_ramp()
+
+    def end_ramp(self) -> None:
+        """The ramp has ended: the hold starts here (the follow ratio is measured over it)."""
+        self.ramp_end_step = self.sim.step
+        chaser, target = self._chaser_target()
+        self._system_hold0, self._target_hold0 = self._system_com(), target
+        d = chaser - target
+        self._pull = d / max(float(np.sqrt(d @ d)), 1e-12)
+
+    def advance_phase(self) -> bool:
+        """At the end of a phase: end the ramp (True: the test goes on) or judge the test
+        (False: it has ended)."""
+        if self.ramp_end_step is None:
+            self.end_ramp()
+            return True
+        self.judge()
+        return False
+
+    def judge(self, reason: str = "") -> TugOutcome:
+        """The verdict at the simulation's current step (``reason``: why the test ended
+        early, e.g. a divergence: then the net did not hold)."""
+        sim = self.sim
+        cfg = self.cfg
+        dist = self._surface_distances()
+        slip = dist - self._dist0
+        largest_slip = float(max(0.0, float(slip.max())))
+        mesh = self._mesh_side()
+        masses = sim.net_masses
+        near_mass = float(masses[self._near0].sum())
+        slid = self._near0 & (dist > mesh)
+        slid_share = float(masses[slid].sum()) / near_mass if near_mass > 0 else 1.0
+        follow = math.nan
+        if self._pull is not None:
+            _, target = self._chaser_target()
+            moved_system = float((self._system_com() - self._system_hold0) @ self._pull)
+            moved_target = float((target - self._target_hold0) @ self._pull)
+            follow = moved_target / moved_system if moved_system > 0 else math.nan
+        closed = self._closed_pairs()
+        why = reason
+        if not why and not (follow >= cfg.min_follow):
+            why = (f"the target did not follow: it moved {follow:.3g} of the way of the "
+                   f"system's centre of mass over the hold (at least {cfg.min_follow:g} needed)")
+        if not why and closed < sim.cfg.success_locked_pairs:
+            why = (f"the net opened: {closed} drawstring pairs within twice the lock distance "
+                   f"at the end (at least {sim.cfg.success_locked_pairs} needed)")
+        if not why and slid_share > cfg.max_slid_share:
+            why = (f"the net slid off: {slid_share:.1%} of the net's mass on the target left it "
+                   f"(at most {cfg.max_slid_share:.0%})")
+        self.outcome = TugOutcome(
+            held=not why, reason=why,
+            peak_tension=float(sim.data.tug_peak[sim.s.lane]), largest_slip=largest_slip,
+            follow_ratio=follow, slid_share=slid_share, closed_pairs=closed,
+            peak_force=float(self.force),
+            duration=(sim.step - self.start_step) * sim.dt)
+        return self.outcome
+
+    # -- measures ------------------------------------------------------------------------
+    def _chaser_target(self) -> tuple[np.ndarray, np.ndarray]:
+        s = self.sim.s
+        return s.bodies.x[s.tether.winch].copy(), s.target_body.pos.copy()
+
+    def _system_com(self) -> np.ndarray:
+        """The centre of mass (m) of every body with mass and the target."""
+        s = self.sim.s
+        b = s.bodies
+        dyn = b.w > 0
+        m_t = self.sim.target_mass
+        total = float(b.mass[dyn].sum()) + m_t
+        return ((b.x[dyn] * b.mass[dyn, None]).sum(axis=0) + m_t * s.target_body.pos) / total
+
+    def _mesh_side(self) -> float:
+        return float(self.sim.s.grid.rest)
+
+    def _surface_distances(self) -> np.ndarray:
+        """Signed distances (m) of the net's nodes to the target's surface, by the kernel's
+        own query in the target's body frame."""
+        from .kernel import quat_to_matrix
+        s = self.sim.s
+        tb = s.target_body
+        R = quat_to_matrix(tb.quat)
+        body = (s.bodies.x[s.net_nodes] - tb.pos) @ R + tb.com_offset
+        d, _ = s.target.signed_distances(body)
+        return np.asarray(d)
+
+    def _closed_pairs(self) -> int:
+        s = self.sim.s
+        x = s.bodies.x
+        p = s.drawstring.pairs
+        gaps = np.sqrt(((x[p[:, 1]] - x[p[:, 0]]) ** 2).sum(axis=1))
+        return int((gaps <= 2.0 * self.sim.cfg.lock_distance).sum())
