@@ -472,3 +472,30 @@ def test_cli_capture_via_ros_default_scenario(tmp_path):
     topics = {t["topic_metadata"]["name"] for t in meta["rosbag2_bagfile_information"]["topics_with_message_count"]}
     assert topics == {TOPICS[k] for k in [*DEFAULTS["capture_node"]["record_topics"],
                                           *ALWAYS_RECORDED]}
+
+
+def test_tug_via_ros_equals_library(tmp_path):
+    """The tug test through the nodes (`capture --via ros --tug`): the capture's verdict and
+    the test's, bit for bit the library's; the bag carries it and `tethernet replay`
+    reports it, and the monitor judged the settle time's state (docs/model.md §17)."""
+    from tethernet_ros.core.tug import TugConfig
+
+    (tmp_path / "short.yaml").write_text("settle_time: 2.0\ntug: {ramp_time: 2.0, hold_time: 3.0}\n")
+    config = SimConfig(settle_time=2.0, tether_order="chain",
+                       tug=TugConfig(enabled=True, peak_tension=4000.0, ramp_time=2.0, hold_time=3.0))
+    ref = run_episode(DESIGN, NOISE.sample(SEED), config, record_trace=False)
+    assert ref.tug is not None
+    out = run_cli("capture", "--design", "time-min", "--seed", str(SEED), "--via", "ros",
+                  "--config", str(tmp_path / "short.yaml"), "--tug", "4000", "--json",
+                  "--bag-name", "tug", cwd=tmp_path,
+                  domain_id=str((int(os.environ.get("ROS_DOMAIN_ID", "0")) + 2) % 200 + 1))
+    assert out.returncode == 0, out.stderr[-2000:]
+    got = json.loads(out.stdout)
+    assert got["tug"] == ref.tug
+    assert got["settled_cqi"] == ref.settled_cqi and got["success"] == ref.success
+    assert got["completion_time"] == ref.completion_time
+    report = json.loads(subprocess.run([str(ROOT / ".venv/bin/tethernet"), "replay",
+                                        str(tmp_path / "bags" / "tug"), "--json"],
+                                       capture_output=True, text=True).stdout)
+    assert report["ok"], report["problems"]
+    assert report["recorded_tug"] == ref.tug

@@ -152,6 +152,9 @@ def replay(path) -> dict:
             problems.append(f"cannot replay the closing loop: {exc}")
     report["recomputed"] = _result_dict(recomputed)
     report["recorded_result"] = _result_dict(sim_results[-1]) if sim_results else None
+    # the tug test's verdict (docs/model.md §17) as the simulation recorded it; replay
+    # recomputes the capture's verdict from the states, not the test's
+    report["recorded_tug"] = conv.tug_from_msg(sim_results[-1]) if sim_results else None
     report["recorded_verdict"] = _result_dict(verdicts[-1]) if verdicts else None
     for key, recs in (("result", sim_results), ("verdict", verdicts)):
         if recomputed is None or not recs:
@@ -334,6 +337,12 @@ def run(args) -> int:
         m = report[f"matches_{key}"]
         tag = "" if m is None else ("  -> match" if m else "  -> MISMATCH")
         lines.append(f"  {label:<17} {_fmt_result(report[f'recorded_{key}'])}{tag}")
+    tug = report.get("recorded_tug")
+    if tug:
+        lines.append(f"  tug test          {'HELD' if tug['held'] else 'LOST'} under "
+                     f"{tug['peak_force']:g} N (recorded; not recomputed): peak tether tension "
+                     f"{tug['peak_tension']:.0f} N, largest slip {tug['largest_slip']:.2f} m"
+                     + (f"; {tug['reason']}" if tug["reason"] else ""))
     for p in report["problems"]:
         lines.append(f"  problem           {p}")
     lines.append("  => " + ("replay agrees with the recorded result" if report["ok"]

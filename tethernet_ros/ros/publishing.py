@@ -53,6 +53,13 @@ class PublishingSimulation(ControlledSimulation):
         if self.mission_step // self.every > max(self.last_published, 0) // self.every:
             self.publish()
 
+    def next_phase(self) -> bool:
+        """Publish the state at the end of a phase before the next begins: the settle
+        time's end is the state the capture is judged on (``episode.CaptureSimulation.
+        settled``), which the monitor must see when the tug test follows."""
+        self.publish()
+        return super().next_phase()
+
     def publish(self) -> None:
         if self.mission_step != self.last_published:
             self.last_published = self.mission_step

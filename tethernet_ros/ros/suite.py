@@ -185,11 +185,6 @@ class RosSuite:
                  lockstep: bool = False, controller: str | None = None,
                  domain_id: int | None = None):
         self.config = config or SimConfig()
-        if self.config.tug.enabled:
-            from ..core.config import ConfigError
-            raise ConfigError("config field 'tug.enabled': the ROS node suite does not run the "
-                              "tug test yet (docs/ros.md); run it in the library: capture "
-                              "--via library, validate with the process or pool backend")
         self.controller = controller
         self.lockstep = in_lockstep(lockstep or controller, self.config)
         self.noise_model = noise_model

@@ -26,11 +26,11 @@ from .commands import launch_command_msg, closing_command_msg, commands_from_msg
 from .states import net_state_msg, net_state_from_msg, target_pose_msg, clock_msg
 from .loop import (measurement_msg, measurement_from_msg, decision_msg, launch_decision_msg,
                    sensed_msgs)
-from .results import (TERM_FIELDS, metrics_msg, metrics_from_cdr, terms_from_msg, episode_result_msg,
-                      episode_result_from_msg)
+from .results import (TERM_FIELDS, TUG_FIELDS, metrics_msg, metrics_from_cdr, terms_from_msg,
+                      episode_result_msg, episode_result_from_msg, tug_from_msg)
 from .capture import Outcome, capture_reply, capture_feedback_msg, cancel_msg
 
-__all__ = ["RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FIELDS", "design_msg",
+__all__ = ["TUG_FIELDS", "tug_from_msg", "RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FIELDS", "design_msg",
            "design_from_msg", "NOISE_FIELDS", "noise_settings_msg", "noise_settings_from_msg",
            "noise_model_from_msg", "noise_sample_msg", "noise_sample_from_msg", "tumble_msg",
            "tumble_from_msg", "config_with_tumble", "launch_from_request", "target_from_request",

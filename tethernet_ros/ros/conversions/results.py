@@ -69,7 +69,36 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
     pen = getattr(result, "max_penetration", math.nan)
     m.max_penetration = math.nan if pen is None else float(pen)
     m.launch_time = float(getattr(result, "launch_time", 0.0))
+    tug = getattr(result, "tug", None)
+    m.tug_tested = tug is not None
+    if tug is not None:
+        for name in TUG_FIELDS:
+            value = tug[name]
+            if name in ("held", "reason"):
+                setattr(m.tug, name, type(getattr(m.tug, name))(value))
+            elif name == "closed_pairs":
+                m.tug.closed_pairs = int(value)
+            else:
+                setattr(m.tug, name, math.nan if value is None else float(value))
     return m
+
+
+#: TugOutcome fields: the core's ``tug.TugOutcome``, in its order
+TUG_FIELDS = ("held", "reason", "peak_tension", "largest_slip", "follow_ratio", "slid_share",
+              "closed_pairs", "peak_force", "duration")
+
+
+def tug_from_msg(m) -> dict | None:
+    """The tug verdict of an EpisodeResult message as the core's dict (None: not tested,
+    or a message recorded before it carried the test)."""
+    if not getattr(m, "tug_tested", False):
+        return None
+    d = {name: getattr(m.tug, name) for name in TUG_FIELDS}
+    d["held"], d["reason"], d["closed_pairs"] = bool(d["held"]), str(d["reason"]), int(d["closed_pairs"])
+    for name in TUG_FIELDS[2:]:
+        if name != "closed_pairs":
+            d[name] = None if not math.isfinite(d[name]) else float(d[name])
+    return d
 
 
 def episode_result_from_msg(m) -> EpisodeResult:
@@ -82,4 +111,4 @@ def episode_result_from_msg(m) -> EpisodeResult:
         failure_reason=m.failure_reason, wall_time=float(m.wall_time),
         seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
         max_penetration=float(getattr(m, "max_penetration", math.nan)),
-        launch_time=float(getattr(m, "launch_time", math.nan)))
+        launch_time=float(getattr(m, "launch_time", math.nan)), tug=tug_from_msg(m))
