@@ -30,7 +30,8 @@ from .results import (TERM_FIELDS, TUG_FIELDS, metrics_msg, metrics_from_cdr, te
                       episode_result_msg, episode_result_from_msg, tug_from_msg)
 from .capture import Outcome, capture_reply, capture_feedback_msg, cancel_msg
 
-__all__ = ["TUG_FIELDS", "tug_from_msg", "RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FIELDS", "design_msg",
+__all__ = ["TUG_FIELDS", "tug_from_msg",
+           "RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FIELDS", "design_msg",
            "design_from_msg", "NOISE_FIELDS", "noise_settings_msg", "noise_settings_from_msg",
            "noise_model_from_msg", "noise_sample_msg", "noise_sample_from_msg", "tumble_msg",
            "tumble_from_msg", "config_with_tumble", "launch_from_request", "target_from_request",
