@@ -9,8 +9,9 @@ The tether, the net and its contact with the target carry it; nothing else is ad
 
 The capture **holds** when, at the end of the test, all three are true:
 
-- *the target follows*: over the hold, the target's displacement along the pull is at
-  least ``min_follow`` of the displacement of the whole system's centre of mass (chaser,
+- *the target follows*: over the hold's second half (the first takes up the slack of the
+  tether and the net), the target's displacement along the pull is at least
+  ``min_follow`` of the displacement of the whole system's centre of mass (chaser,
   tether, net and target; it moves under the thrust alone, without the oscillations of
   the tether and net between chaser and target): a held target moves with it, ratio near
   1; a target the net has let go stays behind, near 0;
@@ -148,6 +149,9 @@ class TugTest:
         self.hold_steps = max(1, int(round(tug.hold_time / dt)))
         self.start_step: int | None = None
         self.ramp_end_step: int | None = None
+        #: the follow ratio is measured over the hold's second half
+        self.window_steps = max(1, self.hold_steps // 2)
+        self.window_start_step: int | None = None
         self.outcome: TugOutcome | None = None
         self._near0 = None
         self._dist0 = None
@@ -162,10 +166,14 @@ class TugTest:
         return self.start_step is not None
 
     def end_step(self) -> int:
-        """The step at which the current phase ends (ramp, then hold)."""
+        """The step at which the current phase ends: the ramp, the hold's first half (the
+        slack of the tether and the net taken up), its second half (the follow ratio's
+        window)."""
         if self.ramp_end_step is None:
             return self.start_step + self.ramp_steps
-        return self.ramp_end_step + self.hold_steps
+        if self.window_start_step is None:
+            return self.ramp_end_step + self.hold_steps - self.window_steps
+        return self.window_start_step + self.window_steps
 
     # -- what the host calls -------------------------------------------------------------
     def start(self) -> None:
@@ -184,8 +192,12 @@ class TugTest:
             self.end_ramp()
 
     def end_ramp(self) -> None:
-        """The ramp has ended: the hold starts here (the follow ratio is measured over it)."""
+        """The ramp has ended: the hold starts here."""
         self.ramp_end_step = self.sim.step
+
+    def start_window(self) -> None:
+        """The hold's second half starts: the follow ratio is measured from here."""
+        self.window_start_step = self.sim.step
         chaser, target = self._chaser_target()
         self._system_hold0, self._target_hold0 = self._system_com(), target
         d = chaser - target
@@ -196,6 +208,9 @@ class TugTest:
         (False: it has ended)."""
         if self.ramp_end_step is None:
             self.end_ramp()
+            return True
+        if self.window_start_step is None:
+            self.start_window()
             return True
         self.judge()
         return False
@@ -223,7 +238,8 @@ class TugTest:
         why = reason
         if not why and not (follow >= cfg.min_follow):
             why = (f"the target did not follow: it moved {follow:.3g} of the way of the "
-                   f"system's centre of mass over the hold (at least {cfg.min_follow:g} needed)")
+                   f"system's centre of mass over the hold's second half (at least "
+                   f"{cfg.min_follow:g} needed)")
         if not why and closed < sim.cfg.success_locked_pairs:
             why = (f"the net opened: {closed} drawstring pairs within twice the lock distance "
                    f"at the end (at least {sim.cfg.success_locked_pairs} needed)")
