@@ -108,7 +108,8 @@ def summary_text(label, seed_label, r, wall, via, bag_path, png) -> str:
     if tug:
         lines.append(f"  tug test           {'HELD' if tug['held'] else 'LOST'} under "
                      f"{tug['peak_force']:g} N  (peak tether tension {fmt(tug['peak_tension'], ' N', 0)}, "
-                     f"largest slip {fmt(tug['largest_slip'], ' m', 2)}, follow ratio "
+                     f"largest slip {fmt(tug['largest_slip'], ' m', 2)}, net offset "
+                     f"{fmt(tug['net_offset'], ' m', 2)}, follow ratio "
                      f"{fmt(tug['follow_ratio'], '', 2)}, slid off {fmt(tug['slid_share'] * 100, ' %', 1)}, "
                      f"closed pairs {tug['closed_pairs']})")
         if tug["reason"]:

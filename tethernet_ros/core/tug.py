@@ -9,12 +9,9 @@ The tether, the net and its contact with the target carry it; nothing else is ad
 
 The capture **holds** when, at the end of the test, all three are true:
 
-- *the target follows*: over the hold's second half (the first takes up the slack of the
-  tether and the net), the target's displacement along the pull is at least
-  ``min_follow`` of the displacement of the whole system's centre of mass (chaser,
-  tether, net and target; it moves under the thrust alone, without the oscillations of
-  the tether and net between chaser and target): a held target moves with it, ratio near
-  1; a target the net has let go stays behind, near 0;
+- *the target follows*: it is still inside the net: the net's centre of mass is within the
+  target's bounding radius of the target's centre of mass (a net that let go is pulled
+  away with the chaser, tens of metres off);
 - *the net stays closed*: at least ``success_locked_pairs`` drawstring pairs (the count
   the source's criterion asks for at the settle time) are closer than twice the lock
   distance (a pair latched at the lock distance hovers about it; an open pair is a third
@@ -23,8 +20,12 @@ The capture **holds** when, at the end of the test, all three are true:
   surface when the test began, at most ``max_slid_share`` has moved farther than that.
 
 Reported with each verdict: the peak tether tension (N, any step), the largest slip (m:
-the largest growth of a net node's distance to the target's surface), the follow ratio,
-the share slid off and the closed pairs.  Units: SI (m, s, kg, N, Pa).
+the largest growth of a net node's distance to the target's surface), the net's offset
+(m), the share slid off, the closed pairs, and the follow ratio: over the hold's second
+half, the target's displacement along the pull over that of the whole system's centre of
+mass (1: it moves with the system).  The ratio is reported, not judged: at 100-400 N it
+spreads over 0.14-1.01 for held and lost captures alike (the slack of the tether and the
+net still being taken up, or the kick a net gives as it slides off; docs/model.md §17).  Units: SI (m, s, kg, N, Pa).
 """
 from __future__ import annotations
 
@@ -45,7 +46,6 @@ _LIMITS = {
     "tether_strength": (1e8, 1e10, "a tensile strength in [1e8, 1e10] Pa"),
     "ramp_time": (0.0, 600.0, "a time in [0, 600] s"),
     "hold_time": (0.1, 600.0, "a time in [0.1, 600] s"),
-    "min_follow": (0.0, 1.0, "a ratio in [0, 1]"),
     "max_slid_share": (0.0, 1.0, "a share in [0, 1]"),
 }
 
@@ -64,15 +64,14 @@ class TugConfig:
     the tether's tensile strength, default 3.3e9 Pa, the lower end of 3.3-3.9 GPa for
     Dyneema SK75/SK78 fibre (DSM fact sheet CIS YA100, 2010; a braided rope keeps only part
     of its fibre's strength, so this bounds the rope's strength from above); ramp_time (s),
-    hold_time (s): the test's protocol; min_follow, max_slid_share: the verdict's
-    thresholds (the protocol's choices, not physical constants; docs/model.md §17)."""
+    hold_time (s): the test's protocol; max_slid_share: the verdict's threshold (the
+    protocol's choice, not a physical constant; docs/model.md §17)."""
 
     enabled: bool = False
     peak_tension: float = 0.0
     tether_strength: float = 3.3e9
     ramp_time: float = 5.0
     hold_time: float = 10.0
-    min_follow: float = 0.5
     max_slid_share: float = 0.5
 
     def __post_init__(self):
@@ -113,13 +112,15 @@ def tug_params(tug: TugConfig, tether_radius: float, dt: float) -> dict:
 @dataclass
 class TugOutcome:
     """The test's verdict and its measures: held (bool), reason ('' when held), peak
-    tether tension (N), largest slip (m), follow ratio, share slid off, closed pairs, the
-    peak thrust (N) and the test's duration (s)."""
+    tether tension (N), largest slip (m), the net's offset (m, its centre of mass from the
+    target's at the end), follow ratio, share slid off, closed pairs, the peak thrust (N)
+    and the test's duration (s)."""
 
     held: bool
     reason: str
     peak_tension: float
     largest_slip: float
+    net_offset: float
     follow_ratio: float
     slid_share: float
     closed_pairs: int
@@ -235,11 +236,12 @@ class TugTest:
             moved_target = float((target - self._target_hold0) @ self._pull)
             follow = moved_target / moved_system if moved_system > 0 else math.nan
         closed = self._closed_pairs()
+        offset = float(np.linalg.norm(sim.net_centre_of_mass() - sim.s.target_body.pos))
+        reach = float(sim.s.target.bounding_radius)
         why = reason
-        if not why and not (follow >= cfg.min_follow):
-            why = (f"the target did not follow: it moved {follow:.3g} of the way of the "
-                   f"system's centre of mass over the hold's second half (at least "
-                   f"{cfg.min_follow:g} needed)")
+        if not why and not offset <= reach:
+            why = (f"the target did not follow: the net's centre of mass ended {offset:.3g} m "
+                   f"from the target's (at most its bounding radius {reach:.3g} m)")
         if not why and closed < sim.cfg.success_locked_pairs:
             why = (f"the net opened: {closed} drawstring pairs within twice the lock distance "
                    f"at the end (at least {sim.cfg.success_locked_pairs} needed)")
@@ -249,6 +251,7 @@ class TugTest:
         self.outcome = TugOutcome(
             held=not why, reason=why,
             peak_tension=float(sim.data.tug_peak[sim.s.lane]), largest_slip=largest_slip,
+            net_offset=offset,
             follow_ratio=follow, slid_share=slid_share, closed_pairs=closed,
             peak_force=float(self.force),
             duration=(sim.step - self.start_step) * sim.dt)
