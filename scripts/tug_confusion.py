@@ -1,0 +1,39 @@
+"""The tug study's report (issue 36, point 2; docs/studies/tug.md): for each results file
+``<dir>/<design>_<attitude>.jsonl`` (written by ``tethernet validate --tug F``), the
+confusion between the source's verdict and the tug test's (``studies/tug.py``); writes
+the table as markdown and the cells as JSON.
+
+    .venv/bin/python scripts/tug_confusion.py DIR --out docs/studies/tug
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from tethernet_ros.montecarlo.results_file import ResultsFile
+from tethernet_ros.studies.tug import confusion, confusion_table
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("dir")
+    p.add_argument("--out", default=None, metavar="PATH (no suffix)")
+    args = p.parse_args(argv)
+    rows = []
+    for path in sorted(Path(args.dir).glob("*.jsonl")):
+        samples = list({r.seed: r for _, r in ResultsFile(path).records()}.values())
+        if samples:
+            rows.append(confusion(path.stem, samples))
+    table = confusion_table(rows)
+    print(table)
+    if args.out:
+        Path(args.out).with_suffix(".json").write_text(
+            json.dumps([c.to_dict() for c in rows], indent=1, default=str) + "\n")
+        Path(args.out + "-table.md").write_text(table + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

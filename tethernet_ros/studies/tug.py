@@ -1,0 +1,94 @@
+"""The source's verdict against the tug test's (issue 36, point 2; docs/model.md §17): over
+one cell's samples, how often the settled CQI and locked pairs call a capture a success
+that the tug finds lost (a false capture), and the reverse (a missed capture)."""
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import asdict, dataclass
+
+from ..core.metrics import wilson_interval
+
+__all__ = ["Confusion", "confusion", "confusion_table"]
+
+
+@dataclass
+class Confusion:
+    """One cell: n samples; by the source's criterion (``success``) against the tug's
+    (``tug.held``): both success (``agree_held``), false captures (success, lost), missed
+    captures (failure, held), both failures (``agree_lost``) and samples without a test
+    (closing never triggered or the episode diverged before it); the share of the source's
+    successes that hold with its Wilson 95 % interval; the tug's reasons for losing a
+    success; mean and largest peak tether tension (N) and the median share slid off of held
+    and of lost captures."""
+
+    label: str
+    n: int
+    source_success: int
+    held: int
+    agree_held: int
+    false_captures: int
+    missed_captures: int
+    agree_lost: int
+    untested: int
+    hold_share: float
+    hold_lo: float
+    hold_hi: float
+    false_reasons: dict
+    mean_peak_tension: float
+    max_peak_tension: float
+    slid_median_held: float
+    slid_median_lost: float
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def _median(xs) -> float:
+    xs = sorted(xs)
+    if not xs:
+        return math.nan
+    m = len(xs) // 2
+    return xs[m] if len(xs) % 2 else 0.5 * (xs[m - 1] + xs[m])
+
+
+def confusion(label: str, samples) -> Confusion:
+    """The confusion of one cell's samples (``SampleResult`` with ``tug``)."""
+    tested = [s for s in samples if s.tug]
+    ok = [s for s in tested if s.success]
+    held_ok = [s for s in ok if s.tug["held"]]
+    lost_ok = [s for s in ok if not s.tug["held"]]
+    fail = [s for s in tested if not s.success]
+    held_fail = [s for s in fail if s.tug["held"]]
+    lo, hi = wilson_interval(len(held_ok), len(ok)) if ok else (math.nan, math.nan)
+    peaks = [s.tug["peak_tension"] for s in tested if s.tug["peak_tension"] is not None]
+    reasons = Counter(s.tug["reason"].split(":")[0] for s in lost_ok)
+    return Confusion(
+        label=label, n=len(samples), source_success=sum(1 for s in samples if s.success),
+        held=sum(1 for s in tested if s.tug["held"]), agree_held=len(held_ok),
+        false_captures=len(lost_ok), missed_captures=len(held_fail),
+        agree_lost=len(fail) - len(held_fail), untested=len(samples) - len(tested),
+        hold_share=len(held_ok) / len(ok) if ok else math.nan, hold_lo=lo, hold_hi=hi,
+        false_reasons=dict(reasons),
+        mean_peak_tension=sum(peaks) / len(peaks) if peaks else math.nan,
+        max_peak_tension=max(peaks) if peaks else math.nan,
+        slid_median_held=_median([s.tug["slid_share"] for s in tested if s.tug["held"]]),
+        slid_median_lost=_median([s.tug["slid_share"] for s in tested if not s.tug["held"]]))
+
+
+def confusion_table(rows: list[Confusion]) -> str:
+    """The markdown table of the cells."""
+    def pct(x):
+        return "n/a" if x != x else f"{100 * x:.1f}"
+    lines = ["| cell | N | source success | tug held | both held | false captures | missed "
+             "captures | both lost | not tested | successes that hold % [95 %] | peak tension "
+             "mean / max (kN) | slid off, median held / lost |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for c in rows:
+        lines.append(
+            f"| {c.label} | {c.n} | {c.source_success} | {c.held} | {c.agree_held} | "
+            f"**{c.false_captures}** | {c.missed_captures} | {c.agree_lost} | {c.untested} | "
+            f"{pct(c.hold_share)} [{pct(c.hold_lo)}, {pct(c.hold_hi)}] | "
+            f"{c.mean_peak_tension / 1e3:.1f} / {c.max_peak_tension / 1e3:.1f} | "
+            f"{pct(c.slid_median_held)} / {pct(c.slid_median_lost)} % |")
+    return "\n".join(lines)
