@@ -480,9 +480,9 @@ def test_tug_via_ros_equals_library(tmp_path):
     reports it, and the monitor judged the settle time's state (docs/model.md §17)."""
     from tethernet_ros.core.tug import TugConfig
 
-    (tmp_path / "short.yaml").write_text("settle_time: 2.0\ntug: {ramp_time: 2.0, hold_time: 3.0}\n")
+    (tmp_path / "short.yaml").write_text("settle_time: 2.0\ntug: {hold_time: 3.0}\n")
     config = SimConfig(settle_time=2.0, tether_order="chain",
-                       tug=TugConfig(enabled=True, peak_tension=4000.0, ramp_time=2.0, hold_time=3.0))
+                       tug=TugConfig(enabled=True, peak_tension=4000.0, hold_time=3.0))
     ref = run_episode(DESIGN, NOISE.sample(SEED), config, record_trace=False)
     assert ref.tug is not None
     out = run_cli("capture", "--design", "time-min", "--seed", str(SEED), "--via", "ros",

@@ -148,15 +148,16 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
 
 def add_fidelity_argument(p: argparse.ArgumentParser) -> None:
     """--fidelity: simulate at the reference fidelity (the configuration as given, the
-    default) or at exploration's (the implicit step at 2 ms; core/fidelity.py)."""
+    default) or at exploration's (the implicit step at 2 ms with 8 sweeps; core/fidelity.py)."""
     from ..core.fidelity import FIDELITIES, REFERENCE
 
     p.add_argument("--fidelity", choices=FIDELITIES, default=REFERENCE,
                    help="reference: the configuration as given (default); exploration: the "
-                        "same with the implicit step at 2 ms, about twice as fast, whose "
-                        "statistics matched the reference's in docs/studies/step.md but "
-                        "whose energy invariant does not hold (not a reference-fidelity "
-                        "result; needs the default 1 ms implicit step in --config)")
+                        "same with the implicit step at 2 ms and 8 solver sweeps, at "
+                        "0.65-0.80 of the CPU time, whose statistics matched the "
+                        "reference's on 14 designs in docs/studies/fidelity.md (not a "
+                        "reference-fidelity result; needs the default 1 ms implicit step "
+                        "and 4 sweeps in --config)")
 
 
 def fidelity_config(args, config):

@@ -90,9 +90,9 @@ def add_arguments(p):
     p.add_argument("--explore-fidelity", choices=FIDELITIES, default=REFERENCE,
                    help="the fidelity of the seed points and the iterations: reference (the "
                         "configuration as given, the default) or exploration (the implicit "
-                        "step at 2 ms, about twice as fast; its P*_s matched the reference's "
-                        "on Case 1's designs but fell 11 points in Case 2's fast corner: "
-                        "docs/studies/fidelity.md).  Racing and validation always "
+                        "step at 2 ms with 8 sweeps, at 0.65-0.80 of the CPU time; its P*_s "
+                        "matched the reference's on the Cases' designs and the reference "
+                        "designs: docs/studies/fidelity.md).  Racing and validation always "
                         "run at the reference, so every result the run reports is a "
                         "reference-fidelity one.  Recorded in run.json; --resume needs the "
                         "same")

@@ -3,18 +3,20 @@ home of what each changes.
 
 ``reference``: the configuration as given, unchanged bit for bit (every published number,
 every validation).  ``exploration``: the same configuration with the implicit method's
-step at 2 ms instead of 1 ms, about twice as fast; docs/studies/step.md found its
-statistics within every 95 % interval of the reference (P*_s, 200 samples per reference
-design) and mean T within 0.03 %, but the method's energy invariant does not hold at 2 ms,
-so it is not the default and no claim rests on it: the optimiser may search with it, and
-races and validates at ``reference`` (docs/optimizer.md).  On the Cases' own designs
-(docs/studies/fidelity.md) it agrees on Case 1's region but not in Case 2's fast corner
-(V_z = 10 m/s), where its P*_s is 11 points lower: not for Case 2 searches yet.
+step at 2 ms instead of 1 ms and 8 solver sweeps instead of 4, at 0.65-0.80 of the
+reference's CPU time.  On the ten Case designs and the four reference designs of
+docs/studies/fidelity.md its P*_s is within the smaller 95 % half-width of the
+reference's (N = 100, common random numbers) and mean T within 0.03 %.  Its first form,
+2 ms with 4 sweeps (docs/studies/step.md), lost 11 points of P*_s in Case 2's fast corner:
+the closed net, whipping about the stage, gained energy there and was thrown off.  The
+method's energy invariant is not checked at 2 ms, so exploration is not the default and no
+claim rests on it: the optimiser may search with it, and races and validates at
+``reference`` (docs/optimizer.md).
 
-Exploration is defined only relative to the step that study measured: it needs the
+Exploration is defined only relative to the configuration those studies measured: the
 implicit method (``integrator: implicit``) at the reference step (``dt: 0``,
-``implicit_dt: 0.001`` s); a configuration with another step is refused (ConfigError
-naming the field) rather than scaled, since no study measured a doubled step elsewhere.
+``implicit_dt: 0.001`` s) and sweeps (``implicit_iterations: 4``); another is refused
+(ConfigError naming the field) rather than scaled, since no study measured it.
 """
 from __future__ import annotations
 
@@ -27,16 +29,18 @@ __all__ = ["FIDELITIES", "REFERENCE", "EXPLORATION", "FIDELITY_CHANGES",
 REFERENCE = "reference"
 EXPLORATION = "exploration"
 #: fidelity -> the SimConfig fields it sets (s for the steps); source of exploration's
-#: 2 ms: docs/studies/step.md
+#: 2 ms and 8 sweeps: docs/studies/fidelity.md
 FIDELITY_CHANGES: dict[str, dict] = {
     REFERENCE: {},
-    EXPLORATION: {"implicit_dt": 2e-3},
+    EXPLORATION: {"implicit_dt": 2e-3, "implicit_iterations": 8},
 }
 #: fidelity -> the SimConfig field values it needs in the configuration it is applied to
-#: (the cell docs/studies/step.md compared with: the implicit method at its 1 ms step)
+#: (the cells docs/studies/fidelity.md compared with: the implicit method at its 1 ms step
+#: and 4 sweeps)
 FIDELITY_REQUIRES: dict[str, dict] = {
     REFERENCE: {},
-    EXPLORATION: {"integrator": "implicit", "dt": 0.0, "implicit_dt": 1e-3},
+    EXPLORATION: {"integrator": "implicit", "dt": 0.0, "implicit_dt": 1e-3,
+                  "implicit_iterations": 4},
 }
 #: the fidelity names, the reference first
 FIDELITIES: tuple[str, ...] = tuple(FIDELITY_CHANGES)
@@ -71,7 +75,8 @@ def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> Si
             raise FidelityError(
                 f"{field} {fidelity!r}: config field '{name}' is {got!r}; the {fidelity} "
                 f"fidelity sets {_changes_text(changes)} and needs {name} = {want!r} "
-                f"(docs/studies/step.md measured it against the implicit method at 1 ms); "
+                f"(docs/studies/fidelity.md measured it against the implicit method at 1 ms "
+                f"and 4 sweeps); "
                 f"leave '{name}' at {want!r} or use {field} {REFERENCE!r}")
     try:
         return config.replace(**changes)
@@ -80,7 +85,8 @@ def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> Si
 
 
 def fidelity_text(fidelity: str) -> str:
-    """The fidelity in words, e.g. "exploration (implicit_dt = 0.002 s)"."""
+    """The fidelity in words, e.g. 'exploration (implicit_dt = 0.002 s, implicit_iterations
+    = 8)'."""
     changes = FIDELITY_CHANGES[check_fidelity(fidelity)]
     return fidelity if not changes else f"{fidelity} ({_changes_text(changes)})"
 

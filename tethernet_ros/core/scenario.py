@@ -330,7 +330,7 @@ def build_scenario(design: Design, actions: Actions, world: World,
     _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb, c=c_all,
                                        k_contact=k_contact, c_contact=c_contact)
     sc.dt = cfg.step_for(sc.stable_step)
-    sc.set_params(dt=sc.dt, **tug_params(cfg.tug, th.tether_radius, sc.dt))
+    sc.set_params(dt=sc.dt, **tug_params(cfg.tug, th.tether_radius))
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
     sc.launch = launch_model(cfg.launch, sc.dt,
                              planned_window(design, cfg) if cfg.launch.built_in else None,

@@ -3,9 +3,11 @@ pulls?  An optional phase after the settle time, off by default (every result wi
 is unchanged bit for bit).
 
 When the settle time has passed and the capture's verdict by the CQI has been read, the
-chaser thrusts away from the target's centre of mass (``kernel.tug``): the force ramps
-linearly from zero to the peak tension over ``ramp_time`` and is held for ``hold_time``.
-The tether, the net and its contact with the target carry it; nothing else is added.
+chaser thrusts away from the target's centre of mass with ``peak_tension`` (``kernel.tug``).
+First it takes up the slack of the tether and the net, never moving away from the target
+faster than ``creep_speed``, until the tether carries half the thrust (at most
+``take_up_time``); then the thrust is held for ``hold_time``, whatever the speed.  The
+tether, the net and its contact with the target carry it; nothing else is added.
 
 The capture **holds** when, at the end of the test, all three are true:
 
@@ -35,7 +37,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from .checks import check_numbers
-from .kernel.data import E_TUG_STEP
+from .kernel.data import E_TUG_STEP, E_TUG_TAUT
 
 __all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "peak_force",
            "tug_params"]
@@ -44,8 +46,9 @@ __all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "p
 _LIMITS = {
     "peak_tension": (0.0, 1e7, "a force in [0, 1e7] N, and > 0 when the test is on"),
     "tether_strength": (1e8, 1e10, "a tensile strength in [1e8, 1e10] Pa"),
-    "ramp_time": (0.0, 600.0, "a time in [0, 600] s"),
     "hold_time": (0.1, 600.0, "a time in [0.1, 600] s"),
+    "creep_speed": (0.001, 10.0, "a speed in [0.001, 10] m/s"),
+    "take_up_time": (0.1, 3600.0, "a time in [0.1, 3600] s"),
     "max_slid_share": (0.0, 1.0, "a share in [0, 1]"),
 }
 
@@ -59,19 +62,22 @@ class TugConfig:
     """The tug test's settings (docs/model.md §17 gives each one's source).
 
     enabled: run the test after the settle time (default off); peak_tension (N): the
-    thrust held after the ramp (no default: it must be given when the test is on, and at
+    thrust (no default: it must be given when the test is on, and at
     most the main tether's breaking load); tether_strength (Pa):
     the tether's tensile strength, default 3.3e9 Pa, the lower end of 3.3-3.9 GPa for
     Dyneema SK75/SK78 fibre (DSM fact sheet CIS YA100, 2010; a braided rope keeps only part
-    of its fibre's strength, so this bounds the rope's strength from above); ramp_time (s),
-    hold_time (s): the test's protocol; max_slid_share: the verdict's threshold (the
-    protocol's choice, not a physical constant; docs/model.md §17)."""
+    of its fibre's strength, so this bounds the rope's strength from above); hold_time (s),
+    creep_speed (m/s: the chaser's largest speed away from the target while it takes up
+    the slack), take_up_time (s: the longest that may take): the test's protocol;
+    max_slid_share: the verdict's threshold (the protocol's choices, not physical
+    constants; docs/model.md §17)."""
 
     enabled: bool = False
     peak_tension: float = 0.0
     tether_strength: float = 3.3e9
-    ramp_time: float = 5.0
     hold_time: float = 10.0
+    creep_speed: float = 0.2
+    take_up_time: float = 60.0
     max_slid_share: float = 0.5
 
     def __post_init__(self):
@@ -100,21 +106,22 @@ def peak_force(tug: TugConfig, tether_radius: float) -> float:
     return tug.peak_tension
 
 
-def tug_params(tug: TugConfig, tether_radius: float, dt: float) -> dict:
-    """The kernel's tug parameters (``kernel.Params`` tug_force (N), tug_ramp (steps, at
-    least 1)) for a step of ``dt`` s; zero force when the test is off."""
+def tug_params(tug: TugConfig, tether_radius: float) -> dict:
+    """The kernel's tug parameters (``kernel.Params`` tug_force (N), tug_creep (m/s)); zero
+    force when the test is off."""
     if not tug.enabled:
-        return {"tug_force": 0.0, "tug_ramp": 1.0}
+        return {"tug_force": 0.0, "tug_creep": 0.0}
     return {"tug_force": float(peak_force(tug, tether_radius)),
-            "tug_ramp": float(max(1, int(round(tug.ramp_time / dt))))}
+            "tug_creep": float(tug.creep_speed)}
 
 
 @dataclass
 class TugOutcome:
     """The test's verdict and its measures: held (bool), reason ('' when held), peak
     tether tension (N), largest slip (m), the net's offset (m, its centre of mass from the
-    target's at the end), follow ratio, share slid off, closed pairs, the peak thrust (N)
-    and the test's duration (s)."""
+    target's at the end), follow ratio, share slid off, closed pairs, the peak thrust (N),
+    the time the slack took to take up (s; NaN: it never was) and the test's duration
+    (s)."""
 
     held: bool
     reason: str
@@ -125,6 +132,7 @@ class TugOutcome:
     slid_share: float
     closed_pairs: int
     peak_force: float
+    take_up_time: float
     duration: float
 
     def to_dict(self) -> dict:
@@ -137,19 +145,21 @@ class TugOutcome:
 
 class TugTest:
     """The test's phases for one episode (``episode.CaptureSimulation``): the host starts it
-    at the end of the settle time (:meth:`start`), marks the end of the ramp
-    (:meth:`end_ramp`) and judges it at its end (:meth:`judge`), reading the episode's
-    arrays; the kernel applies the thrust and keeps the peak tension."""
+    at the end of the settle time (:meth:`start`); taking up the slack ends when the kernel
+    marks the tether taut; the hold's first half follows, then its second (the follow
+    ratio's window, :meth:`start_window`); the host judges it at its end (:meth:`judge`),
+    reading the episode's arrays.  The kernel applies the thrust and keeps the peak
+    tension."""
 
     def __init__(self, sim, tug: TugConfig, tether_radius: float):
         self.sim = sim
         self.cfg = tug
         self.force = peak_force(tug, tether_radius)
         dt = sim.dt
-        self.ramp_steps = int(round(sim.s.params.tug_ramp)) if tug.ramp_time > 0 else 0
         self.hold_steps = max(1, int(round(tug.hold_time / dt)))
+        self.take_up_steps = max(1, int(round(tug.take_up_time / dt)))
         self.start_step: int | None = None
-        self.ramp_end_step: int | None = None
+        self.hold_start_step: int | None = None
         #: the follow ratio is measured over the hold's second half
         self.window_steps = max(1, self.hold_steps // 2)
         self.window_start_step: int | None = None
@@ -166,14 +176,21 @@ class TugTest:
     def started(self) -> bool:
         return self.start_step is not None
 
+    @property
+    def taut_step(self) -> int | None:
+        """The first step in which the tether carried tension (None: not yet)."""
+        t = int(self.sim.s.events[E_TUG_TAUT])
+        return None if t < 0 else t
+
     def end_step(self) -> int:
-        """The step at which the current phase ends: the ramp, the hold's first half (the
-        slack of the tether and the net taken up), its second half (the follow ratio's
-        window)."""
-        if self.ramp_end_step is None:
-            return self.start_step + self.ramp_steps
+        """The step at which the current phase ends: taking up the slack (at most
+        take_up_time; it ends at the first look after the tether went taut), the hold's
+        first half, its second half (the follow ratio's window)."""
+        if self.hold_start_step is None:
+            return (self.start_step + self.take_up_steps if self.taut_step is None
+                    else self.sim.step)
         if self.window_start_step is None:
-            return self.ramp_end_step + self.hold_steps - self.window_steps
+            return self.hold_start_step + self.hold_steps - self.window_steps
         return self.window_start_step + self.window_steps
 
     # -- what the host calls -------------------------------------------------------------
@@ -189,12 +206,10 @@ class TugTest:
         self.start_direction = (chaser - target) / max(float(np.linalg.norm(chaser - target)), 1e-12)
         self._dist0 = self._surface_distances()
         self._near0 = self._dist0 <= self._mesh_side()
-        if self.ramp_steps == 0:
-            self.end_ramp()
 
-    def end_ramp(self) -> None:
-        """The ramp has ended: the hold starts here."""
-        self.ramp_end_step = self.sim.step
+    def start_hold(self) -> None:
+        """The slack is taken up: the hold starts here."""
+        self.hold_start_step = self.sim.step
 
     def start_window(self) -> None:
         """The hold's second half starts: the follow ratio is measured from here."""
@@ -205,10 +220,15 @@ class TugTest:
         self._pull = d / max(float(np.sqrt(d @ d)), 1e-12)
 
     def advance_phase(self) -> bool:
-        """At the end of a phase: end the ramp (True: the test goes on) or judge the test
+        """At the end of a phase: begin the next (True: the test goes on) or judge the test
         (False: it has ended)."""
-        if self.ramp_end_step is None:
-            self.end_ramp()
+        if self.hold_start_step is None:
+            if self.taut_step is None:
+                self.judge(f"the target did not follow: the tether never carried half the "
+                           f"thrust within take_up_time {self.cfg.take_up_time:g} s (creeping "
+                           f"away at {self.cfg.creep_speed:g} m/s)", measured=True)
+                return False
+            self.start_hold()
             return True
         if self.window_start_step is None:
             self.start_window()
@@ -216,9 +236,10 @@ class TugTest:
         self.judge()
         return False
 
-    def judge(self, reason: str = "") -> TugOutcome:
+    def judge(self, reason: str = "", measured: bool = False) -> TugOutcome:
         """The verdict at the simulation's current step (``reason``: why the test ended
-        early, e.g. a divergence: then the net did not hold)."""
+        early, e.g. a divergence: then the net did not hold; with ``measured`` the reason
+        stands only if the measures find nothing else)."""
         sim = self.sim
         cfg = self.cfg
         dist = self._surface_distances()
@@ -238,7 +259,7 @@ class TugTest:
         closed = self._closed_pairs()
         offset = float(np.linalg.norm(sim.net_centre_of_mass() - sim.s.target_body.pos))
         reach = float(sim.s.target.bounding_radius)
-        why = reason
+        why = "" if measured else reason
         if not why and not offset <= reach:
             why = (f"the target did not follow: the net's centre of mass ended {offset:.3g} m "
                    f"from the target's (at most its bounding radius {reach:.3g} m)")
@@ -248,12 +269,16 @@ class TugTest:
         if not why and slid_share > cfg.max_slid_share:
             why = (f"the net slid off: {slid_share:.1%} of the net's mass on the target left it "
                    f"(at most {cfg.max_slid_share:.0%})")
+        if not why:
+            why = reason
         self.outcome = TugOutcome(
             held=not why, reason=why,
             peak_tension=float(sim.data.tug_peak[sim.s.lane]), largest_slip=largest_slip,
             net_offset=offset,
             follow_ratio=follow, slid_share=slid_share, closed_pairs=closed,
             peak_force=float(self.force),
+            take_up_time=(math.nan if self.taut_step is None
+                          else (self.taut_step - self.start_step) * sim.dt),
             duration=(sim.step - self.start_step) * sim.dt)
         return self.outcome
 

@@ -26,10 +26,12 @@ CONTACT_OFF, CONTACT_ON, CONTACT_ONCE_OUTSIDE = 0, 1, 2
 #: flight's steps from the launch; E_LAUNCH_STEP the steps the chaser waited before it
 #: (``launch``), E_LAUNCHED whether the net has left, E_FAVOURABLE_SINCE the mission step
 #: since which every launch decision found the attitude favourable (-1: not now),
-#: E_TUG_STEP the flight step at which the tug test started (-1: not started; ``tug``).
+#: E_TUG_STEP the flight step at which the tug test started (-1: not started; ``tug``),
+#: E_TUG_TAUT the first step of it in which the tether carried half the thrust (-1: not
+#: yet).
 (E_STEP, E_CLOSING_ARMED, E_CLOSING_ACTIVE, E_CLOSING_STEP, E_TETHER_LOCKED, E_LAUNCH_STEP,
- E_LAUNCHED, E_FAVOURABLE_SINCE, E_TUG_STEP) = range(9)
-N_EV = 9
+ E_LAUNCHED, E_FAVOURABLE_SINCE, E_TUG_STEP, E_TUG_TAUT) = range(10)
+N_EV = 10
 
 #: x, v (N, 3, K): positions (m) and velocities (m/s); w (N, K): inverse mass (1/kg, 0 for a
 #: kinematic body); mass (N, K) (kg); contact_mask (N, K) uint8 (CONTACT_*);
@@ -71,9 +73,10 @@ BroadData = namedtuple("BroadData", "point dist tests skips misses")
 #: max_penetration (K,) (m); sensor: the sensor's buffer and generator
 #: (``sensing.SensorData``); policy: the closing policy's memory (``policy.PolicyData``);
 #: broad: the contacts' broad phase; tug_peak (K,): the largest tension (N) of a main-tether
-#: segment in any step since the tug test started (``tug``).
+#: segment in any step since the tug test started, tug_impulse (3, K): the thrust's impulse
+#: on the chaser since then (N s) (``tug``).
 Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
-                          "contact_count max_penetration broad tug_peak")
+                          "contact_count max_penetration broad tug_peak tug_impulse")
 
 
 def new_events(closing_armed: bool = True, tether_locked: bool = False,
@@ -84,6 +87,7 @@ def new_events(closing_armed: bool = True, tether_locked: bool = False,
     ev[E_LAUNCHED] = 1 if launched else 0
     ev[E_FAVOURABLE_SINCE] = -1
     ev[E_TUG_STEP] = -1
+    ev[E_TUG_TAUT] = -1
     ev[E_CLOSING_ARMED] = 1 if closing_armed else 0
     ev[E_CLOSING_STEP] = -1
     ev[E_TETHER_LOCKED] = 1 if tether_locked else 0
@@ -134,7 +138,7 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
         broad=BroadData(point=np.zeros((n_bodies, 3, 1)), dist=np.zeros((n_bodies, 1)),
                         tests=np.zeros(1, dtype=np.int64), skips=np.zeros(1, dtype=np.int64),
                         misses=np.zeros(1, dtype=np.int64)),
-        tug_peak=np.zeros(1))
+        tug_peak=np.zeros(1), tug_impulse=np.zeros((3, 1)))
 
 
 def _map(data: Data, fn) -> Data:

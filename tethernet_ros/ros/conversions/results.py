@@ -85,7 +85,7 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
 
 #: TugOutcome fields: the core's ``tug.TugOutcome``, in its order
 TUG_FIELDS = ("held", "reason", "peak_tension", "largest_slip", "net_offset", "follow_ratio",
-              "slid_share", "closed_pairs", "peak_force", "duration")
+              "slid_share", "closed_pairs", "peak_force", "take_up_time", "duration")
 
 
 def tug_from_msg(m) -> dict | None:
