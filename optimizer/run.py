@@ -31,7 +31,7 @@ validations' samples (``episodes_racing``, ``episodes_validation``; all:
 
 Fidelity (``fidelity``, :mod:`optimizer.settings`): the seed points and the iterations may
 run at another fidelity of the problem (``problem.at_fidelity``; for the simulator the 2 ms
-implicit step, docs/optimizer.md); racing and validation always run at the reference, on
+implicit step with 8 sweeps, docs/optimizer.md); racing and validation always run at the reference, on
 samples of their own.  Each observation's ``info["fidelity"]`` (checkpoint.json, and a
 ``fidelity`` column of history.csv when not all are at the reference) records its
 fidelity; run.json records the setting, and a resume under another one is refused.
