@@ -116,3 +116,14 @@ def test_tug_refusals():
     design = load_design("mass-min")
     with pytest.raises(TugError, match="breaking load"):
         scenario_for(design, None, SimConfig(**SHORT, tug=_tug(1e6)))
+
+
+def test_the_example_config_file_turns_the_test_on():
+    """config/tug.yaml (the README's example) is a valid configuration with the test on."""
+    import pathlib
+
+    import yaml
+
+    path = pathlib.Path(__file__).resolve().parent.parent / "config" / "tug.yaml"
+    cfg = SimConfig.from_dict(yaml.safe_load(path.read_text()))
+    assert cfg.tug.enabled and cfg.tug.peak_tension == 400.0 and cfg.tether_order == "chain"
