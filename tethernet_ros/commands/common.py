@@ -154,7 +154,7 @@ def add_fidelity_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fidelity", choices=FIDELITIES, default=REFERENCE,
                    help="reference: the configuration as given (default); exploration: the "
                         "same with the implicit step at 2 ms and 8 solver sweeps, at "
-                        "0.65-0.80 of the CPU time, whose statistics matched the "
+                        "0.61-0.82 of the CPU time, whose statistics matched the "
                         "reference's on 14 designs in docs/studies/fidelity.md (not a "
                         "reference-fidelity result; needs the default 1 ms implicit step "
                         "and 4 sweeps in --config)")

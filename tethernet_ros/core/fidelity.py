@@ -3,10 +3,10 @@ home of what each changes.
 
 ``reference``: the configuration as given, unchanged bit for bit (every published number,
 every validation).  ``exploration``: the same configuration with the implicit method's
-step at 2 ms instead of 1 ms and 8 solver sweeps instead of 4, at 0.65-0.80 of the
+step at 2 ms instead of 1 ms and 8 solver sweeps instead of 4, at 0.61-0.82 of the
 reference's CPU time.  On the ten Case designs and the four reference designs of
 docs/studies/fidelity.md its P*_s is within the smaller 95 % half-width of the
-reference's (N = 100, common random numbers) and mean T within 0.03 %.  Its first form,
+reference's (N = 100, common random numbers) and mean T within 0.031 %.  Its first form,
 2 ms with 4 sweeps (docs/studies/step.md), lost 11 points of P*_s in Case 2's fast corner:
 the closed net, whipping about the stage, gained energy there and was thrown off.  The
 method's energy invariant is not checked at 2 ms, so exploration is not the default and no
