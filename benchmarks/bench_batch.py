@@ -305,7 +305,7 @@ def main(argv=None) -> int:
             print(f"{name:<11} {label:<12} {cpu:8.2f} {len(samples) / cpu:10.3f} "
                   f"{cpu_single / cpu:6.2f} {sim_time / cpu:9.1f} {str(same):>9}")
         # at the chosen lane count: the broad phase off (bit for bit the same episodes), and
-        # the exploration fidelity (the 2 ms step: other episodes, so no identity check)
+        # the exploration fidelity (2 ms, 8 sweeps: other episodes, so no identity check)
         for label, runner, check in (
                 ("K* bp off", BatchRunner(design, cfg, lanes=chosen, broadphase="off"), True),
                 ("K* explore", BatchRunner(design, explore, lanes=chosen), False)):
@@ -321,7 +321,7 @@ def main(argv=None) -> int:
                   f"{cpu_single / cpu:6.2f} {sim / cpu:9.1f} {str(same):>9}")
     print("* the lane count choose_lanes picks on this CPU (broad phase on: the default); "
           "bp off: the contacts' broad phase off; explore: the exploration fidelity "
-          "(core/fidelity.py, the 2 ms step), whose RTF counts its own simulated time")
+          "(core/fidelity.py, 2 ms with 8 sweeps), whose RTF counts its own simulated time")
     print(simd_share(chosen))
     print("\n".join(broadphase_cost(args.designs.split(","), args.samples)))
     print("\n".join(target_cost(args.designs.split(","), args.samples)))
