@@ -127,3 +127,19 @@ def test_the_example_config_file_turns_the_test_on():
     path = pathlib.Path(__file__).resolve().parent.parent / "config" / "tug.yaml"
     cfg = SimConfig.from_dict(yaml.safe_load(path.read_text()))
     assert cfg.tug.enabled and cfg.tug.peak_tension == 400.0 and cfg.tether_order == "chain"
+
+
+def test_batch_lanes_equal_single_runs_with_the_test(mass_min):
+    """The test in the lanes of a batch gives the single runs' verdicts and measures, bit
+    for bit (the phases end at the same clock steps; lanes never read each other)."""
+    from tethernet_ros.core.batch import BatchRunner
+    from tethernet_ros.core.noise import NoiseModel
+
+    cfg = SimConfig(**SHORT, tug=_tug(400.0))
+    noise = NoiseModel()
+    samples = [(i, noise.sample(i)) for i in (0, 1, 2)]
+    single = {i: run_episode(mass_min, s, cfg, record_trace=False) for i, s in samples}
+    batch = {tag: r for tag, r, _ in BatchRunner(mass_min, cfg, lanes=2).run(samples)}
+    for i, r in single.items():
+        assert batch[i].tug == r.tug, i
+        assert (batch[i].settled_cqi, batch[i].steps) == (r.settled_cqi, r.steps), i
