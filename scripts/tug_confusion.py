@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from tethernet_ros.montecarlo.results_file import ResultsFile
+from tethernet_ros.core.tug import TugConfig, breaking_load
 from tethernet_ros.studies.tug import confusion, confusion_table
 
 
@@ -20,12 +21,15 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("dir")
     p.add_argument("--out", default=None, metavar="PATH (no suffix)")
+    p.add_argument("--tether-radius", type=float, default=0.002, metavar="M",
+                   help="the main tether's radius, for its breaking load (default 2 mm)")
     args = p.parse_args(argv)
     rows = []
     for path in sorted(Path(args.dir).glob("*.jsonl")):
         samples = list({r.seed: r for _, r in ResultsFile(path).records()}.values())
         if samples:
-            rows.append(confusion(path.stem, samples))
+            rows.append(confusion(path.stem, samples,
+                                  breaking_load(TugConfig(), args.tether_radius)))
     table = confusion_table(rows)
     print(table)
     if args.out:

@@ -143,3 +143,24 @@ def test_batch_lanes_equal_single_runs_with_the_test(mass_min):
     for i, r in single.items():
         assert batch[i].tug == r.tug, i
         assert (batch[i].settled_cqi, batch[i].steps) == (r.settled_cqi, r.steps), i
+
+
+def test_confusion_counts_false_and_missed_captures():
+    """studies/tug.py sorts samples by the source's verdict against the tug's."""
+    from types import SimpleNamespace
+
+    from tethernet_ros.studies.tug import confusion, confusion_table
+
+    def s(success, held, peak=1000.0, slid=0.1):
+        tug = None if held is None else {"held": held, "reason": "" if held else "x: y",
+                                         "peak_tension": peak, "slid_share": slid}
+        return SimpleNamespace(success=success, tug=tug)
+    samples = [s(True, True), s(True, False, slid=1.0), s(True, False, peak=5e4, slid=1.0),
+               s(False, True), s(False, False), s(False, None)]
+    c = confusion("cell", samples, breaking=4e4)
+    assert (c.n, c.source_success, c.held) == (6, 3, 2)
+    assert (c.agree_held, c.false_captures, c.missed_captures, c.agree_lost, c.untested) == \
+        (1, 2, 1, 1, 1)
+    assert c.hold_share == pytest.approx(1 / 3) and c.over_breaking == 1
+    assert c.false_reasons == {"x": 2} and c.slid_median_lost == 1.0
+    assert "| cell | 6 | 3 | 2 | 1 | **2** | 1 | 1 | 1 |" in confusion_table([c])

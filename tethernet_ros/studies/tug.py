@@ -19,8 +19,9 @@ class Confusion:
     captures (failure, held), both failures (``agree_lost``) and samples without a test
     (closing never triggered or the episode diverged before it); the share of the source's
     successes that hold with its Wilson 95 % interval; the tug's reasons for losing a
-    success; mean and largest peak tether tension (N) and the median share slid off of held
-    and of lost captures."""
+    success; mean and largest peak tether tension (N), the samples whose peak tension
+    exceeded the tether's breaking load (``breaking``, N: the tether itself would have
+    broken) and the median share slid off of held and of lost captures."""
 
     label: str
     n: int
@@ -37,6 +38,7 @@ class Confusion:
     false_reasons: dict
     mean_peak_tension: float
     max_peak_tension: float
+    over_breaking: int
     slid_median_held: float
     slid_median_lost: float
 
@@ -52,8 +54,9 @@ def _median(xs) -> float:
     return xs[m] if len(xs) % 2 else 0.5 * (xs[m - 1] + xs[m])
 
 
-def confusion(label: str, samples) -> Confusion:
-    """The confusion of one cell's samples (``SampleResult`` with ``tug``)."""
+def confusion(label: str, samples, breaking: float = math.inf) -> Confusion:
+    """The confusion of one cell's samples (``SampleResult`` with ``tug``); ``breaking``:
+    the tether's breaking load (N)."""
     tested = [s for s in samples if s.tug]
     ok = [s for s in tested if s.success]
     held_ok = [s for s in ok if s.tug["held"]]
@@ -72,6 +75,7 @@ def confusion(label: str, samples) -> Confusion:
         false_reasons=dict(reasons),
         mean_peak_tension=sum(peaks) / len(peaks) if peaks else math.nan,
         max_peak_tension=max(peaks) if peaks else math.nan,
+        over_breaking=sum(1 for t in peaks if t > breaking),
         slid_median_held=_median([s.tug["slid_share"] for s in tested if s.tug["held"]]),
         slid_median_lost=_median([s.tug["slid_share"] for s in tested if not s.tug["held"]]))
 
@@ -82,13 +86,13 @@ def confusion_table(rows: list[Confusion]) -> str:
         return "n/a" if x != x else f"{100 * x:.1f}"
     lines = ["| cell | N | source success | tug held | both held | false captures | missed "
              "captures | both lost | not tested | successes that hold % [95 %] | peak tension "
-             "mean / max (kN) | slid off, median held / lost |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "mean / max (kN) | above breaking load | slid off, median held / lost |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in rows:
         lines.append(
             f"| {c.label} | {c.n} | {c.source_success} | {c.held} | {c.agree_held} | "
             f"**{c.false_captures}** | {c.missed_captures} | {c.agree_lost} | {c.untested} | "
             f"{pct(c.hold_share)} [{pct(c.hold_lo)}, {pct(c.hold_hi)}] | "
             f"{c.mean_peak_tension / 1e3:.1f} / {c.max_peak_tension / 1e3:.1f} | "
-            f"{pct(c.slid_median_held)} / {pct(c.slid_median_lost)} % |")
+            f"{c.over_breaking} | {pct(c.slid_median_held)} / {pct(c.slid_median_lost)} % |")
     return "\n".join(lines)
