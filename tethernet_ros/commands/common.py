@@ -134,10 +134,10 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="the predictive policy fires once the attitude has been favourable at "
                         "every measurement for this long, in [0, 60] s (default 1)")
     g.add_argument("--tug", type=float, default=None, metavar="N",
-                   help="after the settle time, pull the tether with a thrust ramped to N "
-                        "newtons and judge whether the net holds the target (docs/model.md "
-                        "§17); sets tug: {enabled: true, peak_tension: N} and, unless the "
-                        "config sets it, tether_order: chain")
+                   help="after the settle time, take up the slack and pull the tether with "
+                        "a thrust of N newtons, and judge whether the net holds the target "
+                        "(docs/model.md §17); sets tug: {enabled: true, peak_tension: N} and, "
+                        "unless the config sets it, tether_order: chain")
     g.add_argument("--net-point", choices=NET_POINTS, default=None,
                    help="the net's sensed reference point (default com)")
     g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",
