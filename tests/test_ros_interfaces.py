@@ -22,6 +22,7 @@ from tethernet_msgs.msg import (  # noqa: E402
     ClosingDecision,
     Design,
     EpisodeResult,
+    TugOutcome,
     EpisodeSetup,
     LaunchCommand,
     LaunchDecision,
@@ -102,6 +103,13 @@ EXPECTED_FIELDS = {
         "locked_pairs": "uint32", "closing_time": "double", "completion_time": "double",
         "mass": "double", "failure_reason": "string", "wall_time": "double",
         "steps": "int64", "max_penetration": "double", "launch_time": "double",
+        "tug_tested": "boolean", "tug": "tethernet_msgs/TugOutcome",
+    },
+    TugOutcome: {
+        "held": "boolean", "reason": "string", "peak_tension": "double",
+        "largest_slip": "double", "net_offset": "double", "follow_ratio": "double",
+        "slid_share": "double", "closed_pairs": "uint32", "peak_force": "double",
+        "take_up_time": "double", "duration": "double",
     },
     Design: {
         "corner_mass": "double", "net_side": "double", "thread_radius": "double",
