@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..core.shapes import target_shape
 from ..core.episode import run_episode
+from ..core.tug import outcome_text
 from .common import (add_config_argument, add_design_argument, add_fidelity_argument,
                      add_noise_arguments, add_ros_arguments, check_ros_arguments,
                      config_from_args, controller_config, design_from_args, fidelity_config,
@@ -106,14 +107,7 @@ def summary_text(label, seed_label, r, wall, via, bag_path, png) -> str:
         lines.append(f"  failure reason     {r.failure_reason}")
     tug = getattr(r, "tug", None)
     if tug:
-        lines.append(f"  tug test           {'HELD' if tug['held'] else 'LOST'} under "
-                     f"{tug['peak_force']:g} N  (peak tether tension {fmt(tug['peak_tension'], ' N', 0)}, "
-                     f"largest slip {fmt(tug['largest_slip'], ' m', 2)}, net offset "
-                     f"{fmt(tug['net_offset'], ' m', 2)}, follow ratio "
-                     f"{fmt(tug['follow_ratio'], '', 2)}, slid off {fmt(tug['slid_share'] * 100, ' %', 1)}, "
-                     f"closed pairs {tug['closed_pairs']})")
-        if tug["reason"]:
-            lines.append(f"  tug verdict        {tug['reason']}")
+        lines.append(f"  tug test           {outcome_text(tug)}")
     if bag_path:
         lines.append(f"  bag                {bag_path}")
     if png:

@@ -339,10 +339,8 @@ def run(args) -> int:
         lines.append(f"  {label:<17} {_fmt_result(report[f'recorded_{key}'])}{tag}")
     tug = report.get("recorded_tug")
     if tug:
-        lines.append(f"  tug test          {'HELD' if tug['held'] else 'LOST'} under "
-                     f"{tug['peak_force']:g} N (recorded; not recomputed): peak tether tension "
-                     f"{tug['peak_tension']:.0f} N, largest slip {tug['largest_slip']:.2f} m"
-                     + (f"; {tug['reason']}" if tug["reason"] else ""))
+        from ..core.tug import outcome_text
+        lines.append(f"  tug test          (recorded; not recomputed) {outcome_text(tug)}")
     for p in report["problems"]:
         lines.append(f"  problem           {p}")
     lines.append("  => " + ("replay agrees with the recorded result" if report["ok"]

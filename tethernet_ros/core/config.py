@@ -217,17 +217,8 @@ class SimConfig:
             elif not isinstance(v, cls):
                 raise ConfigError(f"config field '{name}': got {v!r}; must be a mapping of "
                                   f"{cls.__name__} fields")
-        if self.tug.enabled and self.integrator != "implicit":
-            raise ConfigError("config field 'tug.enabled': the tug test needs the implicit "
-                              f"method (integrator 'implicit'); got integrator {self.integrator!r}")
-        if self.tug.enabled and not self.tug.peak_tension > 0:
-            raise ConfigError("tug field 'peak_tension': got 0; must be a force > 0 N when the "
-                              "tug test is on (it has no default: no source at hand gives a "
-                              "removal tug's thrust; docs/model.md §17)")
-        if self.tug.enabled and self.tether_order != "chain":
-            raise ConfigError("config field 'tug.enabled': the tug test needs tether_order "
-                              f"'chain'; got {self.tether_order!r} (the 'reversed' tether is "
-                              "locked with about 2.6 times its straight length, docs/model.md §5)")
+        if self.tug.enabled:
+            self._check_tug()
         for name in ("dt", "implicit_dt"):
             step = getattr(self, name)
             if step > 0:
@@ -235,6 +226,21 @@ class SimConfig:
                 if abs(steps_per_metric - round(steps_per_metric)) > 1e-6:
                     raise ConfigError(f"config field '{name}': 1/(metric_rate*{name}) must be a "
                                       "whole number of steps")
+
+    def _check_tug(self) -> None:
+        """What the tug test needs of the rest of the configuration (ConfigError naming
+        the field)."""
+        if self.integrator != "implicit":
+            raise ConfigError("config field 'tug.enabled': the tug test needs the implicit "
+                              f"method (integrator 'implicit'); got integrator {self.integrator!r}")
+        if not self.tug.peak_tension > 0:
+            raise ConfigError("tug field 'peak_tension': got 0; must be a force > 0 N when the "
+                              "tug test is on (it has no default: no source at hand gives a "
+                              "removal tug's thrust; docs/model.md §17)")
+        if self.tether_order != "chain":
+            raise ConfigError("config field 'tug.enabled': the tug test needs tether_order "
+                              f"'chain'; got {self.tether_order!r} (the 'reversed' tether is "
+                              "locked with about 2.6 times its straight length, docs/model.md §5)")
 
     def step_for(self, stable_step: float) -> float:
         """The integration step (s): ``dt`` if set, else dt_safety * stable_step rounded

@@ -21,7 +21,6 @@ from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, bu
                        world_for)
 from .kernel.model import steps_every
 from .kernel.sensing import seed_state
-from .lumped import Threads
 from .tug import TugTest
 
 
@@ -45,8 +44,7 @@ class CaptureSimulation:
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
         #: the tug test after the settle time (None: off), and what was read when it began
-        self.tug = (TugTest(self, self.cfg.tug, Threads.of(scenario.design, self.cfg).tether_radius)
-                    if self.cfg.tug.enabled else None)
+        self.tug = TugTest(self, self.cfg.tug) if self.cfg.tug.enabled else None
         self.settled: tuple[CQITerms, int, int] | None = None
 
     # -- state ---------------------------------------------------------------------

@@ -39,8 +39,8 @@ import numpy as np
 from .checks import check_numbers
 from .kernel.data import E_TUG_STEP, E_TUG_TAUT
 
-__all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "peak_force",
-           "tug_params"]
+__all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "outcome_text",
+           "peak_force", "tug_params"]
 
 #: (low, high, words) of the numeric settings
 _LIMITS = {
@@ -143,6 +143,19 @@ class TugOutcome:
         return d
 
 
+def outcome_text(tug: dict) -> str:
+    """A verdict (:meth:`TugOutcome.to_dict`) in one line, e.g. "HELD under 400 N (peak
+    tether tension 3305 N, ...)"; the reason follows when it was lost."""
+    def num(v, unit, digits):
+        return "n/a" if v is None or v != v else f"{v:.{digits}f}{unit}"
+    text = (f"{'HELD' if tug['held'] else 'LOST'} under {tug['peak_force']:g} N  (peak tether "
+            f"tension {num(tug['peak_tension'], ' N', 0)}, largest slip "
+            f"{num(tug['largest_slip'], ' m', 2)}, net offset {num(tug['net_offset'], ' m', 2)}, "
+            f"follow ratio {num(tug['follow_ratio'], '', 2)}, slid off "
+            f"{num(tug['slid_share'] * 100, ' %', 1)}, closed pairs {tug['closed_pairs']})")
+    return text + (f": {tug['reason']}" if tug["reason"] else "")
+
+
 class TugTest:
     """The test's phases for one episode (``episode.CaptureSimulation``): the host starts it
     at the end of the settle time (:meth:`start`); taking up the slack ends when the kernel
@@ -151,10 +164,12 @@ class TugTest:
     reading the episode's arrays.  The kernel applies the thrust and keeps the peak
     tension."""
 
-    def __init__(self, sim, tug: TugConfig, tether_radius: float):
+    def __init__(self, sim, tug: TugConfig):
         self.sim = sim
         self.cfg = tug
-        self.force = peak_force(tug, tether_radius)
+        #: the thrust (N): the kernel's, checked against the breaking load when the
+        #: scenario was built (:func:`tug_params`)
+        self.force = float(sim.s.params.tug_force)
         dt = sim.dt
         self.hold_steps = max(1, int(round(tug.hold_time / dt)))
         self.take_up_steps = max(1, int(round(tug.take_up_time / dt)))
@@ -202,8 +217,7 @@ class TugTest:
         sim.data.tug_peak[sim.s.lane] = 0.0
         #: the system's linear momentum (kg m/s) and the pull's direction when it began
         self.start_momentum = sim.linear_momentum().copy()
-        chaser, target = self._chaser_target()
-        self.start_direction = (chaser - target) / max(float(np.linalg.norm(chaser - target)), 1e-12)
+        self.start_direction = self._pull_direction()
         self._dist0 = self._surface_distances()
         self._near0 = self._dist0 <= self._mesh_side()
 
@@ -214,10 +228,9 @@ class TugTest:
     def start_window(self) -> None:
         """The hold's second half starts: the follow ratio is measured from here."""
         self.window_start_step = self.sim.step
-        chaser, target = self._chaser_target()
-        self._system_hold0, self._target_hold0 = self._system_com(), target
-        d = chaser - target
-        self._pull = d / max(float(np.sqrt(d @ d)), 1e-12)
+        self._system_hold0 = self._system_com()
+        self._target_hold0 = self.sim.s.target_body.pos.copy()
+        self._pull = self._pull_direction()
 
     def advance_phase(self) -> bool:
         """At the end of a phase: begin the next (True: the test goes on) or judge the test
@@ -252,9 +265,8 @@ class TugTest:
         slid_share = float(masses[slid].sum()) / near_mass if near_mass > 0 else 1.0
         follow = math.nan
         if self._pull is not None:
-            _, target = self._chaser_target()
             moved_system = float((self._system_com() - self._system_hold0) @ self._pull)
-            moved_target = float((target - self._target_hold0) @ self._pull)
+            moved_target = float((sim.s.target_body.pos - self._target_hold0) @ self._pull)
             follow = moved_target / moved_system if moved_system > 0 else math.nan
         closed = self._closed_pairs()
         offset = float(np.linalg.norm(sim.net_centre_of_mass() - sim.s.target_body.pos))
@@ -283,18 +295,22 @@ class TugTest:
         return self.outcome
 
     # -- measures ------------------------------------------------------------------------
-    def _chaser_target(self) -> tuple[np.ndarray, np.ndarray]:
+    def _pull_direction(self) -> np.ndarray:
+        """The unit vector from the target's centre of mass to the chaser (the thrust's
+        direction, as the kernel computes it)."""
         s = self.sim.s
-        return s.bodies.x[s.tether.winch].copy(), s.target_body.pos.copy()
+        d = s.bodies.x[s.tether.winch] - s.target_body.pos
+        return d / max(float(np.sqrt(d @ d)), 1e-12)
 
     def _system_com(self) -> np.ndarray:
-        """The centre of mass (m) of every body with mass and the target."""
-        s = self.sim.s
-        b = s.bodies
-        dyn = b.w > 0
-        m_t = self.sim.target_mass
+        """The centre of mass (m) of every body with mass and the target (the bodies
+        ``CaptureSimulation.linear_momentum`` counts)."""
+        sim = self.sim
+        b = sim.s.bodies
+        dyn = sim.dynamic_bodies()
+        m_t = sim.target_mass
         total = float(b.mass[dyn].sum()) + m_t
-        return ((b.x[dyn] * b.mass[dyn, None]).sum(axis=0) + m_t * s.target_body.pos) / total
+        return ((b.x[dyn] * b.mass[dyn, None]).sum(axis=0) + m_t * sim.s.target_body.pos) / total
 
     def _mesh_side(self) -> float:
         return float(self.sim.s.grid.rest)
