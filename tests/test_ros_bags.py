@@ -335,3 +335,44 @@ def test_cdr_stamp_reads_the_header_stamp_of_every_stamped_topic():
         assert cdr_stamp(key, serialize_message(m)) == (sec, nsec), key
     empty = msg_class(TOPIC_TYPES["markers"])()
     assert cdr_stamp("markers", serialize_message(empty)) is None
+
+
+def test_the_recording_keeps_one_of_each_repeated_setup_or_command():
+    """The setup handshake sends a setup (and the actuator its commands) again until the
+    episode runs: the recording writes a message equal byte for byte to one already
+    recorded once, and counts states as they come."""
+    from tethernet_ros.ros.recording import Episode
+
+    class Writer:
+        def __init__(self):
+            self.written = []
+
+        def write(self, topic, data, t):
+            self.written.append((topic, data))
+
+    w = Writer()
+    ep = Episode(episode_id="e", writer=w, started=0.0)
+    for key, data in [("setup", b"\x00\x01\x00\x00A"), ("setup", b"\x00\x01\x00\x00A"),
+                      ("launch_command", b"L"), ("launch_command", b"L"),
+                      ("setup", b"\x00\x01\x00\x00B")]:
+        ep.record(key, "/" + key, data)
+    assert w.written == [("/setup", b"\x00\x01\x00\x00A"), ("/launch_command", b"L"),
+                         ("/setup", b"\x00\x01\x00\x00B")]
+    assert not ep.seen_running()
+
+
+def test_setups_heard_by_episode_and_stamp():
+    from types import SimpleNamespace as NS
+
+    from tethernet_ros.ros.state import SetupsHeard
+
+    def setup(eid, sec, nsec=0):
+        return NS(episode_id=eid, header=NS(stamp=NS(sec=sec, nanosec=nsec)))
+
+    heard = SetupsHeard(keep=2)
+    assert not heard.repeat(setup("a", 1)) and heard.repeat(setup("a", 1))
+    assert heard.is_latest(setup("a", 1))
+    assert not heard.repeat(setup("a", 1, 5))           # same id, a later request: new
+    assert not heard.repeat(setup("b", 2)) and heard.repeat(setup("a", 1, 5))
+    assert not heard.is_latest(setup("a", 1, 5)) and heard.is_latest(setup("b", 2))
+    assert not heard.repeat(setup("a", 1))              # forgotten beyond `keep`

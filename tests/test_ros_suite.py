@@ -279,6 +279,35 @@ def test_replay_good_bag(captured, reference):
     assert f"{listed[TOPICS['markers']]} skipped" in text.stdout
 
 
+def test_a_setup_heard_again_is_a_repeat(suite, captured):
+    """The setup handshake (docs/ros.md): the capture node sends a setup again until the
+    episode runs, so a node hears a setup twice.  The episode's setup sent once more after
+    it ended starts nothing (without the keys, the simulation would run it again: the
+    actuator sends its commands again, under the same stamp), and the next capture is
+    served as before."""
+    from rclpy.serialization import deserialize_message
+    from tethernet_msgs.msg import EpisodeSetup
+
+    from tethernet_ros.ros.qos import command_qos
+
+    _, bag = captured
+    (raw,) = [m.data for m in read_bag(bag).by_topic(TOPICS["setup"])]   # recorded once
+    setup = deserialize_message(raw, EpisodeSetup)
+    pub = suite._node.create_publisher(EpisodeSetup, TOPICS["setup"], command_qos())
+    try:
+        # sim, monitor, actuator, sensor and the recorder, as the suite counts them
+        assert suite.spin_until(lambda: pub.get_subscription_count() >= 4, timeout=30)
+        suite.metrics.clear()
+        pub.publish(setup)
+        suite.spin_until(lambda: False, timeout=3.0)
+        assert suite.metrics == [], f"{len(suite.metrics)} states judged: the episode ran again"
+    finally:
+        suite._node.destroy_publisher(pub)
+    result, _ = suite.capture(DESIGN, SEED, bag_name="after_a_repeat")
+    assert result.success == captured[0].success
+    assert result.settled_cqi == captured[0].settled_cqi
+
+
 def test_replay_truncated_and_corrupted(captured, tmp_path):
     from tethernet_ros.bags import copy_truncated
 

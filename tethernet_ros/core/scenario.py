@@ -12,6 +12,7 @@ import numpy as np
 from . import detmath
 from . import kernel as kn
 from .kernel.data import lane_of
+from .kernel.launch import immediate_launch
 from .kernel.model import TETHER_ORDERS, reference_point, steps_every
 from .kernel.sensing import TARGET_POSITIONS, seed_state, sensor_slots
 from .kernel.state import bind_lane
@@ -184,7 +185,9 @@ class Scenario:
     close_threshold: float = 0.0
     iterations: int = 4
     control: kn.ControlModel | None = None
-    launch: kn.LaunchModel | None = None
+    # (immediate by default: a Model whose launch were None would be another numba
+    # signature, a second compile of the whole kernel for the tests' particle systems)
+    launch: kn.LaunchModel = field(default_factory=immediate_launch)
     sensor_seed: int = 0
     broadphase: str = "on"
     _kernel: tuple | None = field(default=None, repr=False, compare=False)

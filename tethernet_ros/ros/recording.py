@@ -16,6 +16,10 @@ from dataclasses import dataclass, field
 
 from .names import STAMPED, is_loop_failure
 
+#: topics whose messages the setup handshake may send again (docs/ros.md): a message
+#: equal, byte for byte, to one already recorded in the episode is a repeat, not recorded
+REPEATABLE = ("setup", "launch_command", "closing_command")
+
 
 def cdr_stamp(key: str, data: bytes) -> tuple[int, int] | None:
     """(sec, nanosec) stamp of a serialized (CDR) message of a STAMPED topic, read in
@@ -55,9 +59,16 @@ class Episode:
     last_stamp: dict = field(default_factory=dict)   # STAMPED key -> (sec, nanosec)
     ended: threading.Event = field(default_factory=threading.Event)
     lock: threading.Lock = field(default_factory=threading.Lock)
+    repeatable: set = field(default_factory=set)     # REPEATABLE messages recorded (CDR)
 
     def record(self, key: str, topic_name: str, data: bytes) -> None:
-        """Write one serialized message of topic ``key`` and note what it says."""
+        """Write one serialized message of topic ``key`` and note what it says (a repeat
+        of a REPEATABLE message is neither)."""
+        if key in REPEATABLE:
+            with self.lock:
+                if data in self.repeatable:
+                    return
+                self.repeatable.add(bytes(data))
         if self.writer is not None:
             self.writer.write(topic_name, data, time.time_ns())
         now = time.monotonic()
@@ -97,6 +108,13 @@ class Episode:
         """Seconds since the last message."""
         with self.lock:
             return time.monotonic() - self.last_message
+
+    def seen_running(self) -> bool:
+        """True once two states and a metrics message of the episode are in: the
+        simulation and the monitor both have their setup and commands (the lockstep
+        loop too, which the second state waits for)."""
+        with self.lock:
+            return self.n_states >= 2 and self.n_metrics >= 1
 
     def progress(self) -> tuple[int, bytes | None]:
         """(metrics messages heard, the latest one serialized, or None)."""

@@ -1,7 +1,8 @@
-"""What the nodes hold between messages: the episode's setup, the actuator's commands
-waiting for their setup, and state snapshots of a running simulation.  No ROS import."""
+"""What the nodes hold between messages: the episode's setup, the setups already handled,
+the actuator's commands waiting for their setup, and state snapshots of a running simulation.  No ROS import."""
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,3 +102,29 @@ def state_arrays(sim) -> StateArrays:
         closing_start_time=-1.0 if ct is None else float(ct),
         locked=np.array(s.drawstring.locked, dtype=bool),
         num_net_nodes=len(s.net_nodes), num_corner_masses=len(s.corner_bodies))
+
+
+class SetupsHeard:
+    """The last few EpisodeSetups a node handled, by key (episode id, stamp).  The capture
+    node sends an episode's setup again until it sees the episode running (docs/ros.md,
+    "the setup handshake"), so a setup heard before is a repeat, to be ignored (the
+    actuator sends its commands for the latest one again)."""
+
+    def __init__(self, keep: int = 8):
+        self._keys: deque = deque(maxlen=keep)
+
+    @staticmethod
+    def key(msg) -> tuple[str, int, int]:
+        return (str(msg.episode_id), *stamp_key(msg.header))
+
+    def repeat(self, msg) -> bool:
+        """True if ``msg`` was heard before; else note it and answer False."""
+        key = self.key(msg)
+        if key in self._keys:
+            return True
+        self._keys.append(key)
+        return False
+
+    def is_latest(self, msg) -> bool:
+        """True if ``msg`` is the last setup noted."""
+        return bool(self._keys) and self._keys[-1] == self.key(msg)

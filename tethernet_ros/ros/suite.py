@@ -260,10 +260,9 @@ class RosSuite:
                                           f"(logs: {self.log_dir})")
             self._wait_capture_node_ready(deadline, timeout)
             # every writer has matched the readers the nodes count, but a reader matches its
-            # writers on its own schedule, which no other node can see, and a volatile reader
-            # drops what comes before (seen once: sim_node missed the first episode's setup
-            # and commands sent 0.46 s after it was ready): a grace for that side. A
-            # mitigation, not a handshake (docs/ros.md)
+            # writers on its own schedule, which no other node can see: the setup is sent
+            # until the episode runs (the setup handshake), and this grace lets the states'
+            # readers match before the first episode (docs/ros.md)
             time.sleep(READER_GRACE_S)
         except BaseException:
             self.stop()

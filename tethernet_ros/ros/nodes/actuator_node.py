@@ -30,6 +30,7 @@ from ..loop import (builtin_controller, episode_launch_policy, episode_policy, e
 from ..parameters import declare, node_spreads, param, topic
 from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
+from ..state import SetupsHeard
 
 NODE = "actuator_node"
 
@@ -51,6 +52,10 @@ class ActuatorNode(Node):
         self.pub_decision = self.pub_launch_decision = None
         # (episode id, Policy or None, its name, LaunchPolicy or None, its name)
         self.episode = None
+        # the setups handled and the commands sent for the latest: a repeat of that setup
+        # (the setup handshake, docs/ros.md) sends the same commands again
+        self.setups = SetupsHeard()
+        self.sent: tuple = ()
         if self.builtin:
             self._warm_up()
             sq = state_qos()
@@ -76,6 +81,12 @@ class ActuatorNode(Node):
 
     def on_setup(self, msg) -> None:
         log = self.get_logger()
+        if self.setups.repeat(msg):
+            if self.setups.is_latest(msg):
+                for pub, command in self.sent:   # lost on the way, maybe: the same again
+                    pub.publish(command)
+            return
+        self.sent = ()
         try:
             setup = conv.setup_from_msg(msg)
             model = setup.noise_model(node_spreads(self))
@@ -106,9 +117,11 @@ class ActuatorNode(Node):
             if not wait_for_subscribers(pub, want, timeout, self.context):
                 log.warning(f"{pub.topic_name}: {pub.get_subscription_count()} subscriber(s), "
                             f"expected {want}")
-        self.pub_launch.publish(conv.launch_command_msg(actions, world, setup.seed, setup.stamp,
-                                                        frame, sample, model))
-        self.pub_closing.publish(conv.closing_command_msg(actions, setup.stamp, frame))
+        self.sent = ((self.pub_launch, conv.launch_command_msg(actions, world, setup.seed,
+                                                               setup.stamp, frame, sample, model)),
+                     (self.pub_closing, conv.closing_command_msg(actions, setup.stamp, frame)))
+        for pub, command in self.sent:
+            pub.publish(command)
         log.info(f"episode {setup.episode_id!r}: commands sent "
                  f"({'nominal' if sample is None else f'seed {setup.seed}'})"
                  + (f"; closing policy {setup.config.policy.kind}" if policy is not None else "")

@@ -69,6 +69,9 @@ CANCELED_TEXT = "canceled by the client"
 LOOP_DRAIN_S = 0.25
 #: s (wall) between two feedback messages of a goal
 FEEDBACK_PERIOD = 0.1
+#: s (wall) between two sendings of an episode's setup until the episode is seen running
+#: (the setup handshake, docs/ros.md)
+SETUP_RESEND_S = 1.0
 #: threads of the node's executor: the service, a goal's execution, the action server's
 #: requests (goal, cancel, result) and suite_ready can all be in a callback at once
 THREADS = 4
@@ -293,11 +296,11 @@ class CaptureNode(Node):
         self.episode = ep
         log.info(f"episode {episode_id!r}: {'nominal' if seed is None else f'seed {seed}'}")
         try:
-            self.pub_setup.publish(conv.setup_msg(episode_id, design, int(request.seed), noise,
-                                                  config, time.time(), nominal=request.nominal,
-                                                  lockstep=lockstep))
+            setup = conv.setup_msg(episode_id, design, int(request.seed), noise, config,
+                                   time.time(), nominal=request.nominal, lockstep=lockstep)
+            self.pub_setup.publish(setup)
             error = self.wait_for_end(ep, feedback, canceled,
-                                      lockstep=in_lockstep(lockstep, config))
+                                      lockstep=in_lockstep(lockstep, config), setup=setup)
         except Exception as exc:  # noqa: BLE001 - reported in the answer
             error = f"{type(exc).__name__}: {exc}"
         except BaseException:                    # KeyboardInterrupt: leave a marked bag
@@ -319,17 +322,21 @@ class CaptureNode(Node):
                                 f"{mismatch}", bag_path=bag)
         return conv.Outcome(SUCCEEDED, result=ep.result, bag_path=bag)
 
-    def wait_for_end(self, ep: Episode, feedback=None, canceled=None, lockstep: bool = False) -> str:
+    def wait_for_end(self, ep: Episode, feedback=None, canceled=None, lockstep: bool = False,
+                     setup=None) -> str:
         """'' once the result and the verdict are in (and late messages drained), else
         the reason the episode failed (a node of the suite gone, a timeout, the node
         shutting down, CANCELED_TEXT).  A node whose process is gone is noticed within
         qos.ALIVE_DEADLINE_S by its liveliness; the stall timeout is the last resort for
-        a node that lives but hangs."""
+        a node that lives but hangs.  ``setup`` (the EpisodeSetup sent) is sent again
+        every SETUP_RESEND_S until the episode is seen running (the setup handshake,
+        docs/ros.md)."""
         start_to = float(param(self, "start_timeout"))
         stall_to = float(param(self, "stall_timeout"))
         total_to = float(param(self, "episode_timeout"))
         sim = self.topic_names["net_state"]
         next_feedback, fed = 0.0, -1
+        next_setup = time.monotonic() + SETUP_RESEND_S
         while not ep.ended.wait(0.05):
             if not self.context.ok():
                 return SHUTDOWN
@@ -340,6 +347,12 @@ class CaptureNode(Node):
                 return (f"{'; '.join(gone)}: the node left the suite during the episode (its "
                         "process died or shut down)")
             now = time.monotonic()
+            if setup is not None and now >= next_setup:
+                if ep.seen_running():
+                    setup = None
+                else:               # a reader that matched late missed it: the same again
+                    self.pub_setup.publish(setup)
+                    next_setup = now + SETUP_RESEND_S
             if feedback is not None and now >= next_feedback:
                 n, data = ep.progress()
                 if n != fed:

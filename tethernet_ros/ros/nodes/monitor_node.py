@@ -21,7 +21,7 @@ from .. import conversions as conv
 from ..parameters import declare, param, topic
 from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, latched_qos, state_qos
 from ..runner import run_node
-from ..state import CommandBuffer
+from ..state import CommandBuffer, SetupsHeard
 
 NODE = "monitor_node"
 MAX_PENDING = 10000
@@ -42,6 +42,7 @@ class MonitorNode(Node):
                                                  alive_qos(sq, ALIVE_LEASE_S))
         self.pub_verdict = self.create_publisher(EpisodeResult, t("verdict"), latched_qos())
         self.setup = None
+        self.setups = SetupsHeard()
         self.commands = CommandBuffer()
         self.mirror: StateMirror | None = None
         self.decided = False
@@ -65,6 +66,8 @@ class MonitorNode(Node):
         mirror.verdict()
 
     def on_setup(self, msg) -> None:
+        if self.setups.repeat(msg):
+            return                           # a repeat (the setup handshake, docs/ros.md)
         try:
             self.setup = conv.setup_from_msg(msg)
         except Exception as exc:  # noqa: BLE001

@@ -26,7 +26,7 @@ from ..loop import episode_scenario, episode_sensor, runs_in_lockstep
 from ..parameters import declare, param, topic
 from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
-from ..state import CommandBuffer
+from ..state import CommandBuffer, SetupsHeard
 
 NODE = "sensor_node"
 MAX_PENDING = 10000
@@ -52,6 +52,7 @@ class SensorNode(Node):
                                                t("sensed_target_twist"), sq)
         self.pub_point = self.create_publisher(PointStamped, t("sensed_net_point"), sq)
         self.setup = None
+        self.setups = SetupsHeard()
         self.sensor = None
         self.dt = 0.0
         self.commands = CommandBuffer()
@@ -75,6 +76,8 @@ class SensorNode(Node):
             np.zeros(N_CHANNELS), 0)
 
     def on_setup(self, msg) -> None:
+        if self.setups.repeat(msg):
+            return                           # a repeat (the setup handshake, docs/ros.md)
         try:
             self.setup = conv.setup_from_msg(msg)
         except Exception as exc:  # noqa: BLE001

@@ -50,7 +50,7 @@ from ..parameters import declare, param, topic
 from ..publishing import EpisodeAborted, Outbox, PublishingSimulation
 from ..qos import ALIVE_LEASE_S, alive_qos, command_qos, latched_qos, state_qos
 from ..runner import run_node, wait_for_subscribers
-from ..state import CommandBuffer, state_arrays
+from ..state import CommandBuffer, SetupsHeard, state_arrays
 
 NODE = "sim_node"
 
@@ -102,6 +102,7 @@ class SimNode(Node):
         self._decided: set[tuple[str, int]] = set()
         self._twice: tuple[str, int] | None = None     # the first step decided twice
         self._setup = None
+        self.setups = SetupsHeard()
         self._commands = CommandBuffer()
         self._worker: threading.Thread | None = None
         self._stop = threading.Event()
@@ -135,6 +136,8 @@ class SimNode(Node):
     def on_setup(self, msg) -> None:
         log = self.node.get_logger()
         with self._lock:
+            if self.setups.repeat(msg):
+                return                       # a repeat (the setup handshake, docs/ros.md)
             if self._running is not None:
                 # the capture node sends a setup only once it is done with the episode
                 # before: that one is abandoned (timed out there); stop it, then start this
