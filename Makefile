@@ -5,7 +5,7 @@ PY    := $(VENV)/bin/python
 # keep DDS discovery on this host (Jazzy's default SUBNET multicasts on the LAN)
 export ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 
-.PHONY: setup demo lint test test-fast bench clean
+.PHONY: setup demo lint test test-all bench clean
 
 setup:
 	bash scripts/setup.sh
@@ -16,12 +16,14 @@ demo: setup
 lint: setup
 	$(VENV)/bin/ruff check .
 
-# two pytest processes side by side (scripts/test.sh): the ROS tests in order with the longest core modules, the rest
+# the fast tier (CI): two pytest processes side by side (scripts/test.sh), the ROS tests in
+# order with the longest core modules, the rest; the slow tier is left out (tests/conftest.py)
 test: lint
-	bash scripts/test.sh
-
-test-fast: setup
 	TEST_MARK="not slow" bash scripts/test.sh
+
+# both tiers: the fast one and the slow studies and costlier repeats (about 45 CPU-min)
+test-all: lint
+	bash scripts/test.sh
 
 bench: setup
 	$(PY) benchmarks/bench_batch.py

@@ -3,7 +3,7 @@
 # the ROS tests in one, in file order (some rely on it: the last test of
 # tests/test_ros_suite.py kills its suite's simulation node), with the longest core
 # modules (marker `second_half`, tests/conftest.py), everything else in the other. Arguments go to both pytest runs; TEST_MARK="EXPR" narrows both halves by
-# a marker expression (make test-fast: "not slow"). Exit status: 0 when both pass.
+# a marker expression (make test: "not slow", the fast tier). Exit status: 0 when both pass.
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 PY=.venv/bin/python
