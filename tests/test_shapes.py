@@ -413,3 +413,26 @@ def test_degenerate_and_duplicate_faces_are_removed_and_reported(tmp_path):
         shape = target_shape(_mesh_config(tmp_path, trimesh.Trimesh(box.vertices, faces,
                                                                       process=False)))
     assert shape.volume == pytest.approx(6.0) and len(shape.faces) == 12
+
+
+def test_design_bounds_and_similar_designs_follow_the_target():
+    """docs/targets.md, "Design bounds": the source's Table 1 for its own stage, lengths
+    times s = largest extent / 10.4 m, d_c times middle extent / 3.9 m, the rest fixed;
+    a design maps by the same factors."""
+    from tethernet_ros.core.design import DESIGN_BOUNDS, REFERENCE_DESIGNS
+    from tethernet_ros.core.shapes.catalogue import (REFERENCE_EXTENTS, design_bounds_for,
+                                                     similar_design)
+
+    assert design_bounds_for(REFERENCE_EXTENTS) == dict(DESIGN_BOUNDS)
+    assert design_bounds_for((3.9, 10.4, 3.9)) == dict(DESIGN_BOUNDS)      # any order
+    b = design_bounds_for((26.0, 5.0, 4.0))                                # Envisat
+    assert b["L_n"] == (32.5, 55.0) and b["d_L"] == (37.5, 87.5) and b["m_c"] == (2.5, 10.0)
+    assert b["d_c"] == (-3.205, 3.205) and b["r_n"] == DESIGN_BOUNDS["r_n"]
+    assert b["V_z"] == DESIGN_BOUNDS["V_z"]
+    d = REFERENCE_DESIGNS["time-min"]
+    assert similar_design(d, REFERENCE_EXTENTS) == d
+    e = similar_design(d, (26.0, 5.0, 4.0))
+    assert e.L_n == pytest.approx(d.L_n * 2.5, rel=1e-3) and e.d_L == pytest.approx(d.d_L * 2.5, rel=1e-3)
+    assert e.d_c == pytest.approx(d.d_c * 5.0 / 3.9, rel=1e-3) and e.V_e == d.V_e and e.r_n == d.r_n
+    with pytest.raises(ValueError, match="extents"):
+        similar_design(d, (1.0, -2.0, 3.0))

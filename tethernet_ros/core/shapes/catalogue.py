@@ -24,7 +24,7 @@ import math
 import pathlib
 from dataclasses import dataclass, field
 
-from ..design import DESIGN_BOUNDS
+from ..design import DESIGN_BOUNDS, VARIABLE_NAMES, Design
 
 #: Extents in m of the target the source's bounds (docs/model.md §8, Table 1) were set
 #: for: the Zenit-2 stage body, 10.4 m long and 3.9 m in diameter, its long axis across the
@@ -59,16 +59,35 @@ def design_bounds_for(extents_m: tuple[float, float, float]) -> dict[str, tuple[
     are rounded to 4 significant digits; ``design_bounds_for(REFERENCE_EXTENTS)`` is
     Table 1 exactly.
     """
+    factor = similarity_factors(extents_m)
+    return {k: (_sig4(lo * factor[k]), _sig4(hi * factor[k])) for k, (lo, hi) in DESIGN_BOUNDS.items()}
+
+
+def similarity_factors(extents_m: tuple[float, float, float]) -> dict[str, float]:
+    """The factor each design variable takes from the source's Zenit-2 to a target whose
+    bounding box has the edge lengths ``extents_m`` (m, any order): s = largest / 10.4 m
+    for the "size" variables, s_d = middle / 3.9 m for the "depth" one, 1 for the others
+    (:data:`SCALING`; the rule of :func:`design_bounds_for`)."""
     try:
         ext = sorted((float(e) for e in extents_m), reverse=True)
     except (TypeError, ValueError):
         ext = []
     if len(ext) != 3 or not all(math.isfinite(e) and e > 0 for e in ext):
         raise ValueError(f"extents: got {extents_m!r}; need three finite lengths > 0 (m)")
-    factor = {"size": ext[0] / REFERENCE_EXTENTS[0], "depth": ext[1] / REFERENCE_EXTENTS[1],
-              "fixed": 1.0}
-    return {k: (_sig4(lo * factor[SCALING[k]]), _sig4(hi * factor[SCALING[k]]))
-            for k, (lo, hi) in DESIGN_BOUNDS.items()}
+    by_rule = {"size": ext[0] / REFERENCE_EXTENTS[0], "depth": ext[1] / REFERENCE_EXTENTS[1],
+               "fixed": 1.0}
+    return {k: by_rule[rule] for k, rule in SCALING.items()}
+
+
+def similar_design(design: Design, extents_m: tuple[float, float, float]) -> Design:
+    """The design geometrically similar, by the rule of :func:`design_bounds_for`, to
+    ``design`` (a design for the source's Zenit-2) for a target whose bounding box has the
+    edge lengths ``extents_m`` (m): each variable times its :func:`similarity_factors`
+    factor, rounded to 4 significant digits (the source's four reference designs on
+    another target, for instance)."""
+    factor = similarity_factors(extents_m)
+    x = [_sig4(v * factor[k]) for k, v in zip(VARIABLE_NAMES, design.to_vector())]
+    return Design.from_vector(x)
 
 
 @dataclass(frozen=True)
