@@ -227,7 +227,9 @@ def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite
     for m in read_bag(bag).messages:
         msgs.setdefault(m.topic, []).append(m.msg)
     fired = msgs[TOPICS["launch_decision"]]
-    assert [d.launch for d in fired] == [False] * (len(fired) - 1) + [True]
+    assert [d.launch for d in fired] == [False] * (len(fired) - 1) + [True], \
+        [(d.episode_id, d.step, d.launch, d.controller) for d in fired if d.launch] + \
+        [(d.episode_id, d.step, d.launch) for d in fired[-5:]]
     assert fired[-1].step * 1e-3 == pytest.approx(ref.launch_time, abs=1e-12)
     assert "(built-in predictive)" in fired[0].controller
     sensed = msgs[TOPICS["measurement"]]

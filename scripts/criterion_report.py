@@ -1,0 +1,47 @@
+"""The success criterion against the tug test, per target (issue 36, point 3;
+docs/studies/criterion.md): for each TARGET=DIR, the results files ``DIR/*.jsonl``
+(written by ``tethernet validate --tug F``) pooled; selection set: even seeds, check
+set: odd seeds (independent noise draws). Writes the table as markdown and the rows as JSON.
+
+    .venv/bin/python scripts/criterion_report.py zenit-2=RUNS/tugstudy --out docs/studies/criterion
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from tethernet_ros.montecarlo.results_file import ResultsFile
+from tethernet_ros.studies.criterion import separation, separation_table, within_cells_table
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("cells", nargs="+", metavar="TARGET=DIR")
+    p.add_argument("--out", default=None, metavar="PATH (no suffix)")
+    args = p.parse_args(argv)
+    rows, cells = [], {}
+    for cell in args.cells:
+        label, _, folder = cell.partition("=")
+        samples = []
+        for path in sorted(Path(folder).glob("*.jsonl")):
+            some = list({r.seed: r for _, r in ResultsFile(path).records()}.values())
+            cells[f"{label}: {path.stem}"] = some
+            samples += some
+        rows.append(separation(label, samples, lambda s: s.seed % 2 == 0))
+    table = separation_table(rows) + "\n\n" + within_cells_table(cells)
+    print(table)
+    for r in rows:
+        print(f"{r.label}: fitted {r.fitted.text()}; on the selection set source "
+              f"{100 * r.source_selection.balanced_accuracy:.1f} %, fitted "
+              f"{100 * r.fitted_selection.balanced_accuracy:.1f} %")
+    if args.out:
+        Path(args.out).with_suffix(".json").write_text(
+            json.dumps([r.to_dict() for r in rows], indent=1, default=str) + "\n")
+        Path(args.out + "-table.md").write_text(table + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
