@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from .tug import median
+
 __all__ = ["Rule", "RuleScore", "SOURCE_RULE", "auc", "score", "fit_rule", "Separation",
            "separation", "separation_table", "within_cells_table"]
 
@@ -195,15 +197,9 @@ def within_cells_table(cells: dict) -> str:
         held = [s for s in ok if s.tug["held"]]
         lost = [s for s in ok if not s.tug["held"]]
 
-        def med(xs):
-            xs = sorted(s.settled_cqi for s in xs)
-            if not xs:
-                return math.nan
-            m = len(xs) // 2
-            return xs[m] if len(xs) % 2 else 0.5 * (xs[m - 1] + xs[m])
-
         lines.append(f"| {label} | {len(ok)} | {len(held)} | "
                      f"{f3(auc([-s.settled_cqi for s in held], [-s.settled_cqi for s in lost]))} | "
                      f"{f3(auc([float(s.locked_pairs) for s in held], [float(s.locked_pairs) for s in lost]))} | "
-                     f"{f3(med(held))} / {f3(med(lost))} |")
+                     f"{f3(median([s.settled_cqi for s in held]))} / "
+                     f"{f3(median([s.settled_cqi for s in lost]))} |")
     return "\n".join(lines)

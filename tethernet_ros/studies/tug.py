@@ -46,7 +46,7 @@ class Confusion:
         return asdict(self)
 
 
-def _median(xs) -> float:
+def median(xs) -> float:
     xs = sorted(xs)
     if not xs:
         return math.nan
@@ -76,8 +76,8 @@ def confusion(label: str, samples, breaking: float = math.inf) -> Confusion:
         mean_peak_tension=sum(peaks) / len(peaks) if peaks else math.nan,
         max_peak_tension=max(peaks) if peaks else math.nan,
         over_breaking=sum(1 for t in peaks if t > breaking),
-        slid_median_held=_median([s.tug["slid_share"] for s in tested if s.tug["held"]]),
-        slid_median_lost=_median([s.tug["slid_share"] for s in tested if not s.tug["held"]]))
+        slid_median_held=median([s.tug["slid_share"] for s in tested if s.tug["held"]]),
+        slid_median_lost=median([s.tug["slid_share"] for s in tested if not s.tug["held"]]))
 
 
 def confusion_table(rows: list[Confusion]) -> str:
