@@ -107,10 +107,15 @@ def _usable(rec: SampleResult | None, record_trace: bool) -> bool:
 
 def _extra(spec: RunSpec) -> dict:
     """What a results-file record adds to say which run it belongs to (and, for a target
-    other than the default Zenit-2, which: its name, file, SHA-256 and units)."""
-    extra = {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales}
-    if spec.config.target.kind != "revolution":
-        extra["target"] = spec.config.target.identity()
+    other than the default Zenit-2, which: its name, file, SHA-256 and units), and the
+    criterion that judged its success (docs/model.md §7: the settled CQI's bound and the
+    locked pairs needed)."""
+    cfg = spec.config
+    extra = {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales,
+             "criterion": {"success_cqi": cfg.success_cqi,
+                           "success_locked_pairs": cfg.success_locked_pairs}}
+    if cfg.target.kind != "revolution":
+        extra["target"] = cfg.target.identity()
     return extra
 
 
