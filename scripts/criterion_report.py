@@ -12,8 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from tethernet_ros.montecarlo.results_file import ResultsFile
 from tethernet_ros.studies.criterion import separation, separation_table, within_cells_table
+from tethernet_ros.studies.files import samples_by_seed
 
 
 def main(argv=None) -> int:
@@ -26,7 +26,7 @@ def main(argv=None) -> int:
         label, _, folder = cell.partition("=")
         samples = []
         for path in sorted(Path(folder).glob("*.jsonl")):
-            some = list({r.seed: r for _, r in ResultsFile(path).records()}.values())
+            some = list(samples_by_seed(path).values())
             cells[f"{label}: {path.stem}"] = some
             samples += some
         rows.append(separation(label, samples, lambda s: s.seed % 2 == 0))

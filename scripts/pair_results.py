@@ -11,13 +11,8 @@ import argparse
 import math
 import sys
 
-from tethernet_ros.montecarlo.results_file import ResultsFile
+from tethernet_ros.studies.files import samples_by_seed
 from tethernet_ros.studies.paired import CellStats, PairedStats
-
-
-def samples_of(path: str) -> dict:
-    """seed -> SampleResult of every record in ``path`` (the last one of a seed)."""
-    return {r.seed: r for _, r in ResultsFile(path).records()}
 
 
 def main(argv=None) -> int:
@@ -27,7 +22,7 @@ def main(argv=None) -> int:
     p.add_argument("--label-a", default="a")
     p.add_argument("--label-b", default="b")
     args = p.parse_args(argv)
-    a, b = samples_of(args.a), samples_of(args.b)
+    a, b = samples_by_seed(args.a), samples_by_seed(args.b)
     seeds = sorted(set(a) & set(b))
     if not seeds:
         print("the files share no sample seed", file=sys.stderr)

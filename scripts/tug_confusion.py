@@ -12,8 +12,8 @@ import json
 import sys
 from pathlib import Path
 
-from tethernet_ros.montecarlo.results_file import ResultsFile
 from tethernet_ros.core.tug import TugConfig, breaking_load
+from tethernet_ros.studies.files import samples_by_seed
 from tethernet_ros.studies.tug import confusion, confusion_table
 
 
@@ -26,7 +26,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     rows = []
     for path in sorted(Path(args.dir).glob("*.jsonl")):
-        samples = list({r.seed: r for _, r in ResultsFile(path).records()}.values())
+        samples = list(samples_by_seed(path).values())
         if samples:
             rows.append(confusion(path.stem, samples,
                                   breaking_load(TugConfig(), args.tether_radius)))

@@ -87,9 +87,9 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.ros)
         if item.get_closest_marker("ros") or item.path.name in BESIDE_ROS:
             item.add_marker(pytest.mark.second_half)
-    if unmatched and len({item.path.name for item in items}) > 1 and not config.option.keyword:
+    collected = {item.path.name for item in items}
+    if unmatched and len(collected) > 1 and not config.option.keyword:
         # a test renamed or removed must leave SLOW too (a whole-suite collection only)
-        whole = {item.path.name for item in items}
-        gone = sorted(k for k in unmatched if k.split("::")[0] in whole)
+        gone = sorted(k for k in unmatched if k.split("::")[0] in collected)
         if gone:
             raise pytest.UsageError(f"tests/conftest.py SLOW names tests that do not exist: {gone}")

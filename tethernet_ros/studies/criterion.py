@@ -6,9 +6,12 @@ as a classifier of the tug's verdict, and the thresholds of the same form that s
 best on a selection set, checked on an independent one.  Reports only: no simulation."""
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import asdict, dataclass
 
+from ..core.config import _LIMITS as CONFIG_LIMITS, SimConfig
+from ..core.metrics import cqi_fails, pairs_fail, wilson_interval
 from .tug import median
 
 __all__ = ["Rule", "RuleScore", "SOURCE_RULE", "auc", "score", "fit_rule", "Separation",
@@ -24,14 +27,17 @@ class Rule:
     min_pairs: int
 
     def __call__(self, s) -> bool:
-        return s.settled_cqi <= self.max_cqi and s.locked_pairs >= self.min_pairs
+        return not (cqi_fails(s.settled_cqi, self.max_cqi)
+                    or pairs_fail(s.locked_pairs, self.min_pairs))
 
     def text(self) -> str:
         return f"CQI <= {self.max_cqi:.3g}, pairs >= {self.min_pairs}"
 
 
-#: the source's criterion (docs/model.md §7)
-SOURCE_RULE = Rule(2.0, 10)
+#: the source's criterion (docs/model.md §7): SimConfig's default thresholds
+SOURCE_RULE = Rule(SimConfig().success_cqi, SimConfig().success_locked_pairs)
+#: the pair bounds a fitted rule may take (SimConfig.success_locked_pairs's range)
+PAIR_BOUNDS = range(CONFIG_LIMITS["success_locked_pairs"][0], CONFIG_LIMITS["success_locked_pairs"][1] + 1)
 
 
 @dataclass(frozen=True)
@@ -61,19 +67,16 @@ def _tested(samples) -> list:
 
 
 def score(rule: Rule, samples) -> RuleScore:
-    from ..core.metrics import wilson_interval
-
     tested = _tested(samples)
-    held = [s for s in tested if s.tug["held"]]
-    lost = [s for s in tested if not s.tug["held"]]
+    n_held = sum(1 for s in tested if s.tug["held"])
+    n_lost = len(tested) - n_held
     called = [s for s in tested if rule(s)]
-    tp = sum(1 for s in held if rule(s))
-    tn = sum(1 for s in lost if not rule(s))
-    tpr = tp / len(held) if held else math.nan
-    tnr = tn / len(lost) if lost else math.nan
+    tp = sum(1 for s in called if s.tug["held"])
+    tpr = tp / n_held if n_held else math.nan
+    tnr = (n_lost - (len(called) - tp)) / n_lost if n_lost else math.nan
     lo, hi = wilson_interval(tp, len(called)) if called else (math.nan, math.nan)
-    return RuleScore(n=len(tested), held=len(held), called=len(called),
-                     false_captures=len(called) - tp, missed_captures=len(held) - tp,
+    return RuleScore(n=len(tested), held=n_held, called=len(called),
+                     false_captures=len(called) - tp, missed_captures=n_held - tp,
                      tpr=tpr, tnr=tnr, balanced_accuracy=0.5 * (tpr + tnr),
                      precision=tp / len(called) if called else math.nan,
                      precision_lo=lo, precision_hi=hi)
@@ -85,8 +88,6 @@ def auc(scores_held: list[float], scores_lost: list[float]) -> float:
     if not scores_held or not scores_lost:
         return math.nan
     lost = sorted(scores_lost)
-    import bisect
-
     total = 0.0
     for x in scores_held:
         below = bisect.bisect_left(lost, x)
@@ -99,14 +100,14 @@ def fit_rule(samples) -> Rule:
     """The rule of the source's form with the highest balanced accuracy on ``samples``
     (ties: the one that calls fewer captures, then the lower bounds): CQI bounds at the
     tested samples' settled CQIs (a bound between two of them calls the same ones), pair
-    bounds 0 to 12 (the drawstring's pairs, SimConfig.success_locked_pairs's range)."""
+    bounds :data:`PAIR_BOUNDS`."""
     tested = _tested(samples)
     n_held = sum(1 for s in tested if s.tug["held"])
     n_lost = len(tested) - n_held
     if not n_held or not n_lost:
         return SOURCE_RULE
     best, best_key = SOURCE_RULE, None
-    for p in range(0, 13):
+    for p in PAIR_BOUNDS:
         eligible = sorted((s.settled_cqi, bool(s.tug["held"])) for s in tested
                           if s.locked_pairs >= p)
         tp = called = 0
@@ -143,41 +144,51 @@ class Separation:
         return asdict(self)
 
 
+def _aucs(samples) -> tuple[float, float]:
+    """(AUC of the settled CQI, AUC of the locked pairs) of held against lost among the
+    tested ``samples``: a lower CQI, or more pairs, counts as ranking higher."""
+    tested = _tested(samples)
+    held = [s for s in tested if s.tug["held"]]
+    lost = [s for s in tested if not s.tug["held"]]
+    return (auc([-s.settled_cqi for s in held], [-s.settled_cqi for s in lost]),
+            auc([float(s.locked_pairs) for s in held], [float(s.locked_pairs) for s in lost]))
+
+
 def separation(label: str, samples, is_selection) -> Separation:
     """``samples``: SampleResults with the tug's verdict; ``is_selection(sample)`` puts a
     sample in the selection set (the rest is the check set)."""
     tested = _tested(samples)
-    held = [s for s in tested if s.tug["held"]]
-    lost = [s for s in tested if not s.tug["held"]]
     sel = [s for s in tested if is_selection(s)]
     chk = [s for s in tested if not is_selection(s)]
     fitted = fit_rule(sel)
+    auc_cqi, auc_pairs = _aucs(tested)
     return Separation(
-        label=label, n=len(tested), held=len(held),
-        auc_cqi=auc([-s.settled_cqi for s in held], [-s.settled_cqi for s in lost]),
-        auc_pairs=auc([float(s.locked_pairs) for s in held], [float(s.locked_pairs) for s in lost]),
+        label=label, n=len(tested), held=sum(1 for s in tested if s.tug["held"]),
+        auc_cqi=auc_cqi, auc_pairs=auc_pairs,
         source_selection=score(SOURCE_RULE, sel), source_check=score(SOURCE_RULE, chk),
         fitted=fitted, fitted_selection=score(fitted, sel), fitted_check=score(fitted, chk))
 
 
+def _pct(x: float) -> str:
+    return "n/a" if x != x else f"{100 * x:.1f}"
+
+
+def _f3(x: float) -> str:
+    return "n/a" if x != x else f"{x:.3f}"
+
+
 def separation_table(rows: list[Separation]) -> str:
     """The markdown table of the targets."""
-    def pct(x):
-        return "n/a" if x != x else f"{100 * x:.1f}"
-
-    def f3(x):
-        return "n/a" if x != x else f"{x:.3f}"
-
     def rs(sc: RuleScore) -> str:
-        return (f"{pct(sc.balanced_accuracy)} ({sc.false_captures} false, "
-                f"{sc.missed_captures} missed of {sc.n}; {pct(sc.precision)} "
-                f"[{pct(sc.precision_lo)}, {pct(sc.precision_hi)}] hold)")
+        return (f"{_pct(sc.balanced_accuracy)} ({sc.false_captures} false, "
+                f"{sc.missed_captures} missed of {sc.n}; {_pct(sc.precision)} "
+                f"[{_pct(sc.precision_lo)}, {_pct(sc.precision_hi)}] hold)")
 
     lines = ["| target | tested | held | AUC of CQI | AUC of pairs | source's rule on the check "
              "set: balanced accuracy % | fitted on the selection set | fitted, on the check set |",
              "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r.label} | {r.n} | {r.held} | {f3(r.auc_cqi)} | {f3(r.auc_pairs)} | "
+        lines.append(f"| {r.label} | {r.n} | {r.held} | {_f3(r.auc_cqi)} | {_f3(r.auc_pairs)} | "
                      f"{rs(r.source_check)} | {r.fitted.text()} | {rs(r.fitted_check)} |")
     return "\n".join(lines)
 
@@ -187,19 +198,14 @@ def within_cells_table(cells: dict) -> str:
     design and attitude), over the source's successes only: does a lower settled CQI, or
     more locked pairs, go with a capture that holds?  (AUC 0.5: no better than chance;
     below 0.5: the other way round.)"""
-    def f3(x):
-        return "n/a" if x != x else f"{x:.3f}"
-
     lines = ["| cell | successes | held | AUC of CQI | AUC of pairs | median CQI, held / lost |",
              "|---|---|---|---|---|---|"]
     for label, samples in cells.items():
         ok = [s for s in _tested(samples) if s.success]
         held = [s for s in ok if s.tug["held"]]
         lost = [s for s in ok if not s.tug["held"]]
-
-        lines.append(f"| {label} | {len(ok)} | {len(held)} | "
-                     f"{f3(auc([-s.settled_cqi for s in held], [-s.settled_cqi for s in lost]))} | "
-                     f"{f3(auc([float(s.locked_pairs) for s in held], [float(s.locked_pairs) for s in lost]))} | "
-                     f"{f3(median([s.settled_cqi for s in held]))} / "
-                     f"{f3(median([s.settled_cqi for s in lost]))} |")
+        auc_cqi, auc_pairs = _aucs(ok)
+        lines.append(f"| {label} | {len(ok)} | {len(held)} | {_f3(auc_cqi)} | {_f3(auc_pairs)} | "
+                     f"{_f3(median([s.settled_cqi for s in held]))} / "
+                     f"{_f3(median([s.settled_cqi for s in lost]))} |")
     return "\n".join(lines)

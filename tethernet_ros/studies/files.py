@@ -15,6 +15,12 @@ from ..core.design import REFERENCE_DESIGNS, Design
 from ..montecarlo import ResultsFile, SampleResult
 
 
+def samples_by_seed(path: str | Path) -> dict[int, SampleResult]:
+    """seed -> SampleResult of every record in a results file (a later record of the same
+    seed replaces an earlier one), whatever its design or run key."""
+    return {r.seed: r for _, r in ResultsFile(path).records()}
+
+
 def samples_by_design(path: str | Path, key: str | None = None) -> dict[str, list[SampleResult]]:
     """The samples of each reference design in a results file, ordered by seed (one record
     per seed; a later record of the same seed replaces an earlier one); ``key``: only the
