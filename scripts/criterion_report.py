@@ -8,12 +8,12 @@ set: odd seeds (independent noise draws). Writes the table as markdown and the r
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from tethernet_ros.studies.criterion import separation, separation_table, within_cells_table
 from tethernet_ros.studies.files import samples_by_seed
+from tethernet_ros.studies.report import write_report
 
 
 def main(argv=None) -> int:
@@ -37,9 +37,7 @@ def main(argv=None) -> int:
               f"{100 * r.source_selection.balanced_accuracy:.1f} %, fitted "
               f"{100 * r.fitted_selection.balanced_accuracy:.1f} %")
     if args.out:
-        Path(args.out).with_suffix(".json").write_text(
-            json.dumps([r.to_dict() for r in rows], indent=1, default=str) + "\n")
-        Path(args.out + "-table.md").write_text(table + "\n")
+        write_report(args.out, rows, table)
     return 0
 
 

@@ -8,12 +8,12 @@ the table as markdown and the cells as JSON.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
 from tethernet_ros.core.tug import TugConfig, breaking_load
 from tethernet_ros.studies.files import samples_by_seed
+from tethernet_ros.studies.report import write_report
 from tethernet_ros.studies.tug import confusion, confusion_table
 
 
@@ -33,9 +33,7 @@ def main(argv=None) -> int:
     table = confusion_table(rows)
     print(table)
     if args.out:
-        Path(args.out).with_suffix(".json").write_text(
-            json.dumps([c.to_dict() for c in rows], indent=1, default=str) + "\n")
-        Path(args.out + "-table.md").write_text(table + "\n")
+        write_report(args.out, rows, table)
     return 0
 
 

@@ -8,6 +8,16 @@ from ..core.design import PUBLISHED_OUTCOMES
 from .paired import CellStats, PairedStats
 
 
+def write_report(out: str | Path, rows: list, table: str) -> None:
+    """A report's two files: ``<out>.json`` (each row's ``to_dict()``) and
+    ``<out>-table.md`` (the markdown table); ``out`` without a suffix."""
+    import json
+
+    Path(out).with_suffix(".json").write_text(
+        json.dumps([r.to_dict() for r in rows], indent=1, default=str) + "\n")
+    Path(f"{out}-table.md").write_text(table + "\n")
+
+
 def _pct(p: float) -> str:
     return "-" if p is None or not math.isfinite(p) else f"{100 * p:.1f}"
 
