@@ -3,6 +3,7 @@ nothing, exploration sets the implicit step to 2 ms and 8 sweeps (docs/studies/f
 never mix in a results file, and an optimisation may search at exploration but races and
 validates at the reference."""
 import json
+import math
 
 import numpy as np
 import pytest
@@ -258,3 +259,47 @@ def test_a_run_at_the_reference_writes_what_it_always_did_and_resumes_old_run_di
     with pytest.raises(RunError, match="cannot resume: setting 'fidelity'"):
         optimize_design("mass", backend=SyntheticBackend(), run_dir=run_dir, resume=True,
                         **{**kw, "fidelity": {"iterations": EXPLORATION}})
+
+
+def _early_verdict_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[1] / "scripts" / "early_verdict.py"
+    spec = importlib.util.spec_from_file_location("early_verdict", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_early_verdict_reads_the_rule_at_the_trace_sample_nearest_closing_plus_s():
+    """scripts/early_verdict.py (docs/studies/fidelity.md, "An earlier verdict"): the
+    success rule on the trace sample nearest closing + s; the pairs that lock late and a
+    CQI that falls late make an early verdict a lost capture, counted against the
+    settle time's verdict."""
+    from tethernet_ros.montecarlo.records import SampleResult
+
+    ev = _early_verdict_script()
+    times = [round(0.1 * k, 1) for k in range(260)]           # 0-25.9 s at 10 Hz
+
+    def sample(seed, cqi, pairs, success, closing=5.03, category=""):
+        return SampleResult(key="k", index=seed, seed=seed, success=success,
+                            settled_cqi=cqi(25.03), locked_pairs=pairs(25.03),
+                            closing_time=closing, completion_time=closing + 20.0, mass=1.0,
+                            failure_reason="", category=category,
+                            trace={"time": times, "cqi": [cqi(t) for t in times],
+                                   "locked_pairs": [pairs(t) for t in times]})
+
+    cfg = SimConfig()
+    late_pairs = sample(1, lambda t: 0.5, lambda t: 9 if t < 16.0 else 11, True)
+    slow_cqi = sample(2, lambda t: 3.0 if t < 19.0 else 1.5, lambda t: 12, True)
+    settled = sample(3, lambda t: 0.4, lambda t: 12, True)
+    never = sample(4, lambda t: 6.0, lambda t: 0, False, closing=math.nan)
+    assert [ev.verdict_at(late_pairs, s, cfg) for s in (8.0, 10.0, 12.0)] == [False, False, True]
+    assert [ev.verdict_at(slow_cqi, s, cfg) for s in (8.0, 12.0, 15.0)] == [False, False, True]
+    assert ev.verdict_at(settled, 6.0, cfg) and not ev.verdict_at(never, 6.0, cfg)
+    truth = {s.seed: s for s in (late_pairs, slow_cqi, settled, never)}
+    assert ev.compare(truth, truth, 8.0, cfg)[:3] == (4, 2, 0)
+    assert ev.compare(truth, truth, 15.0, cfg)[:3] == (4, 0, 0)
+    with pytest.raises(ValueError, match="no trace sample within"):
+        ev.verdict_at(settled, 30.0, cfg)
