@@ -436,3 +436,32 @@ def test_design_bounds_and_similar_designs_follow_the_target():
     assert e.d_c == pytest.approx(d.d_c * 5.0 / 3.9, rel=1e-3) and e.V_e == d.V_e and e.r_n == d.r_n
     with pytest.raises(ValueError, match="extents"):
         similar_design(d, (1.0, -2.0, 3.0))
+
+
+def test_targets_study_runs_the_designs_on_each_catalogue_target(tmp_path):
+    """`tethernet study targets` (issue 36 point 5): the base's Zenit-2 and every catalogue
+    target but the Zenit-2's own meshes, each at rest and under a 2 deg/s flat spin, the
+    designs unscaled; one cell against the base, end to end, resumable from its summary."""
+    import json
+
+    from tethernet_ros import cli
+    from tethernet_ros.studies.cells import targets_cells
+
+    cells = targets_cells(SimConfig(tumble={"rate_deg_s": 8.0}))
+    names = ["zenit-2"] + [n for n in CATALOGUE if not n.startswith("zenit-2")]
+    assert [c.label for c in cells] == [f"{n} {s}" for n in names for s in ("rest", "flat 2")]
+    for c in cells:
+        assert c.config.target.name == c.label.split()[0]
+        assert (c.config.tumble.rate_deg_s, c.config.tumble.axis) == \
+            ((0.0, "flat") if c.label.endswith("rest") else (2.0, "flat"))
+    argv = ["study", "targets", "--designs", "time-min", "--samples", "1", "--cells",
+            "proba-1 rest", "--workers", "0", "--results", str(tmp_path / "r.jsonl"),
+            "--out", str(tmp_path), "--no-progress"]
+    assert cli.main(argv) == 0
+    summary = json.loads((tmp_path / "targets.json").read_text())
+    assert [c["label"] for c in summary["cells"]] == ["zenit-2 rest", "proba-1 rest"]
+    table = (tmp_path / "targets.md").read_text()
+    assert "proba-1 rest" in table and "zenit-2 rest" in table
+    lines = (tmp_path / "r.jsonl").read_text().splitlines()
+    assert cli.main(argv) == 0                             # taken from its summary
+    assert (tmp_path / "r.jsonl").read_text().splitlines() == lines

@@ -11,6 +11,8 @@ random numbers, with its table and figure written under docs/studies/.
                policies side by side (designs may be YAML files, e.g. the Case optima)
   launch       the flat spins and a precessing one with noisy sensing, the immediate
                against the predictive launch under each closing policy (docs/model.md §16)
+  targets      the designs on every catalogued debris target other than the Zenit-2's own
+               meshes, at rest and under a 2 deg/s flat spin (docs/targets.md)
   compare      two results files (e.g. of `tethernet validate` at two commits or with two
                configurations), matched by design and seed: --a FILE --b FILE
 

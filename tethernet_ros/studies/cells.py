@@ -8,6 +8,8 @@ solver's sweeps.  ``agreement``: the default integrator against the other one, s
 reference points and the planned target distance.  ``tumbling``: the target spinning at
 each rate about each axis, under the threshold and the adaptive policy.  ``launch``: the
 flat spins and a precessing one, the immediate against the predictive launch.
+``targets``: the designs as they are on every catalogued debris target (docs/targets.md)
+that is not a model of the Zenit-2 itself, at rest and under a flat spin.
 """
 from __future__ import annotations
 
@@ -205,6 +207,36 @@ def launch_cells(base: SimConfig) -> list[Cell]:
     return cells
 
 
+#: the targets study's spin: the flat one (about the axis of greatest inertia) at the rate
+#: the tug and criterion studies use (docs/studies/tug.md)
+TARGETS_SPIN = (2.0, "flat")
+
+
+def targets_cells(base: SimConfig) -> list[Cell]:
+    """The base configuration's target (the Zenit-2 by default) at rest and under
+    TARGETS_SPIN, then each catalogue target other than the Zenit-2's own meshes (which
+    docs/studies/mesh-agreement.md compares with the analytic stage) likewise: label
+    '<target> rest' or '<target> flat 2'.  The designs are not scaled to the target: the
+    table says how the designs chosen for the Zenit-2 do on other debris."""
+    from ..core.shapes.catalogue import CATALOGUE
+    from ..core.target import TargetConfig
+    from ..core.tumble import TumbleConfig
+
+    rate, axis = TARGETS_SPIN
+    targets = [(base.target.name, base.target)]
+    targets += [(name, TargetConfig(name=name)) for name in CATALOGUE
+                if not name.startswith("zenit-2")]
+    cells = []
+    for name, target in targets:
+        at_rest = base.replace(target=target, tumble=TumbleConfig())
+        cells.append(Cell(f"{name} rest", f"{name}, at rest", at_rest))
+        cells.append(Cell(f"{name} {axis} {rate:g}", f"{name}, {rate:g} deg/s about its "
+                          f"{axis} axis (greatest inertia)",
+                          at_rest.replace(tumble=TumbleConfig(rate_deg_s=rate, axis=axis))))
+    return cells
+
+
 STUDIES = {"launch": launch_cells, "models": model_cells, "convergence": convergence_cells,
-           "agreement": agreement_cells, "trigger": trigger_cells, "tumbling": tumbling_cells}
+           "agreement": agreement_cells, "trigger": trigger_cells, "tumbling": tumbling_cells,
+           "targets": targets_cells}
 

@@ -57,12 +57,15 @@ def study_table(designs: list[str], cells: list, stats: dict, paired: dict) -> s
 def comparison_table(designs: list[str], paired: dict, label_b: str) -> str:
     """Markdown for a two-cell study (convergence, agreement): per design both P*_s with
     their intervals, the difference against the smaller half-width, the flipped verdicts
-    (McNemar's exact p) and both mean T."""
+    (McNemar's exact p) and both mean T; a design whose cells are not both finished yet
+    (a study under way) is left out."""
     lines = ["| design | N | P*_s a % [95 %] | P*_s b % [95 %] | b - a (pts) | smaller half-width (pts) "
              "| within | flips (share) | McNemar p | mean T a (s) | mean T b (s) | T b / a - 1 |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for d in designs:
-        ps: PairedStats = paired[(label_b, d)]
+        ps: PairedStats | None = paired.get((label_b, d))
+        if ps is None:
+            continue
         a, b = ps.a, ps.b
         lines.append(
             f"| {d} | {a.n} | {_pct(a.p)} [{_pct(a.lo)}, {_pct(a.hi)}] | {_pct(b.p)} [{_pct(b.lo)}, "
