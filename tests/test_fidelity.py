@@ -15,7 +15,7 @@ from optimizer.testproblems import LatentDifficulty
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros import cli, montecarlo
 from tethernet_ros.commands.common import config_from_args, fidelity_config
-from tethernet_ros.core.config import SimConfig
+from tethernet_ros.core.config import ConfigError, SimConfig
 from tethernet_ros.core.design import REFERENCE_DESIGNS, Design
 from tethernet_ros.core.episode import run_episode
 from tethernet_ros.core.fidelity import (EXPLORATION, FIDELITIES, REFERENCE, FidelityError,
@@ -303,3 +303,56 @@ def test_early_verdict_reads_the_rule_at_the_trace_sample_nearest_closing_plus_s
     assert ev.compare(truth, truth, 15.0, cfg)[:3] == (4, 0, 0)
     with pytest.raises(ValueError, match="no trace sample within"):
         ev.verdict_at(settled, 30.0, cfg)
+
+
+def _verdict_fields(r) -> tuple:
+    return (r.success, r.settled_cqi, r.locked_pairs, r.closing_time, r.steps,
+            r.failure_reason, r.settled_terms)
+
+
+def test_the_early_call_reads_a_clear_success_at_half_the_settle_time():
+    """early_call (config.py, docs/model.md §7): at half the settle time a capture inside
+    half the CQI bound with every pair locked is read as settled, bit for bit what a run
+    with that shorter settle time reads, and the episode ends; T still counts the whole
+    settle time, bit for bit the full run's.  A capture that is not clear there settles on
+    to the full settle time, the same as without the call."""
+    design, sample = REFERENCE_DESIGNS["time-min"], NoiseModel().sample(3)
+    full = run_episode(design, sample, SimConfig(settle_time=8.0), record_trace=False)
+    early = run_episode(design, sample, SimConfig(settle_time=8.0, early_call=True),
+                        record_trace=False)
+    half = run_episode(design, sample, SimConfig(settle_time=4.0), record_trace=False)
+    assert early.settled_cqi <= 1.0 and early.locked_pairs == 12       # clear: called
+    assert _verdict_fields(early) == _verdict_fields(half) and early.steps < full.steps
+    assert early.completion_time == full.completion_time and early.success
+    # not clear (half the bound is below any CQI): the full settle, as without the call
+    strict = dict(settle_time=8.0, success_cqi=0.01)
+    want = run_episode(design, sample, SimConfig(**strict), record_trace=False)
+    got = run_episode(design, sample, SimConfig(**strict, early_call=True), record_trace=False)
+    assert _verdict_fields(got) == _verdict_fields(want) and got.completion_time == \
+        want.completion_time and not got.success
+
+
+def test_the_early_call_is_refused_with_the_tug_and_through_ros():
+    from tethernet_ros.ros.parameters import sim_config_of
+
+    with pytest.raises(ConfigError, match="config field 'early_call': got 1; must be true"):
+        SimConfig(early_call=1)
+    with pytest.raises(ConfigError, match="config field 'early_call': the tug test starts"):
+        SimConfig.from_dict({"early_call": True, "tether_order": "chain",
+                             "tug": {"enabled": True, "peak_tension": 400.0}})
+    with pytest.raises(ConfigError, match="sim_config: field 'early_call' is not supported "
+                                          "through ROS"):
+        sim_config_of({"sim_config": '{"early_call": true}', "settle_time": 20.0,
+                       "horizon": 120.0})
+    assert not sim_config_of({"sim_config": "{}", "settle_time": 20.0,
+                              "horizon": 120.0}).early_call
+
+
+def test_an_optimisation_refuses_the_early_call_in_its_configuration(tmp_path):
+    """Racing and validation read the settled state: a configuration with early_call is
+    refused before the run starts (a fidelity may use it for the search)."""
+    with pytest.raises(ConfigError, match="config field 'early_call': an optimisation races"):
+        optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
+                        config=SimConfig(early_call=True), seed_points=2, iterations=0,
+                        samples=5, validation_samples=0)
+    assert not (tmp_path / "r").exists()

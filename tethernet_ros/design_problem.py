@@ -130,6 +130,11 @@ def optimize_design(case, *, backend: montecarlo.EpisodeBackend | None = None,
     progress, callback.
     Returns the run's summary.
     """
+    if config is not None and config.early_call:
+        from .core.config import ConfigError
+        raise ConfigError("config field 'early_call': an optimisation races and validates on "
+                          "the settled state of its configuration; leave early_call off (the "
+                          "seed points and iterations may use it through a fidelity)")
     own = backend is None
     backend = backend or montecarlo.ProcessPoolBackend()
     try:

@@ -88,6 +88,11 @@ class SimConfig:
     (kernel.stable_step), rounded down to divide the metric interval, or implicit_dt for the
     implicit method; horizon: simulated time by which closing must trigger (s);
     settle_time: delay after closing activation at which settled CQI and n_L are read (s).
+    early_call: at half the settle time, call a success that is already clear (CQI at most
+    half of success_cqi and every drawstring pair locked: metrics.clear_success) and end the
+    episode there, reading that state as the settled one; T still counts the whole settle
+    time.  An approximation measured in docs/studies/fidelity.md ("A clear success called
+    early"); off by default.
     Threads: young_modulus E (Pa), damping_ratio zeta, density rho (kg/m^3).
     Net: grid of 17 x 17 nodes, stowed square of side stowed_fraction * L_n; corner threads
     of corner_thread_meshes mesh sides; main tether of tether_segments segments.
@@ -142,6 +147,7 @@ class SimConfig:
     dt_safety: float = 0.5
     horizon: float = 120.0
     settle_time: float = 20.0
+    early_call: bool = False
     young_modulus: float = 70e9
     damping_ratio: float = 0.106
     density: float = 1390.0
@@ -217,6 +223,9 @@ class SimConfig:
             elif not isinstance(v, cls):
                 raise ConfigError(f"config field '{name}': got {v!r}; must be a mapping of "
                                   f"{cls.__name__} fields")
+        if not isinstance(self.early_call, bool):
+            raise ConfigError(f"config field 'early_call': got {self.early_call!r}; must be "
+                              "true or false")
         if self.tug.enabled:
             self._check_tug()
         for name in ("dt", "implicit_dt"):
@@ -237,6 +246,10 @@ class SimConfig:
             raise ConfigError("tug field 'peak_tension': got 0; must be a force > 0 N when the "
                               "tug test is on (it has no default: no source at hand gives a "
                               "removal tug's thrust; docs/model.md §17)")
+        if self.early_call:
+            raise ConfigError("config field 'early_call': the tug test starts from the "
+                              "settled state at the end of the settle time; leave early_call "
+                              "off when the tug test is on")
         if self.tether_order != "chain":
             raise ConfigError("config field 'tug.enabled': the tug test needs tether_order "
                               f"'chain'; got {self.tether_order!r} (the 'reversed' tether is "

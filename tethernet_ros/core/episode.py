@@ -15,7 +15,7 @@ import numpy as np
 from . import kernel as kn
 from .config import SimConfig
 from .design import Design
-from .metrics import CQITerms, capture_quality_index, capture_verdict
+from .metrics import CQITerms, capture_quality_index, capture_verdict, clear_success
 from .noise import NoiseSample
 from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, build_scenario,
                        world_for)
@@ -42,6 +42,12 @@ class CaptureSimulation:
         self.scratch = kn.new_scratch(self.model, 1) if kn.lane_count(self.data) == 1 else None
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
+        #: the early call (config.py): steps from closing activation to its check (None:
+        #: off), whether it was checked, and whether it called the capture there
+        self.call_steps = (int(round(0.5 * self.cfg.settle_time / self.dt))
+                           if self.cfg.early_call else None)
+        self.call_checked = False
+        self.called_early = False
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
         #: the tug test after the settle time (None: off), and what was read when it began
         self.tug = TugTest(self, self.cfg.tug) if self.cfg.tug.enabled else None
@@ -96,12 +102,25 @@ class CaptureSimulation:
             return self.horizon_steps
         if self.tug is not None and self.tug.started:
             return self.tug.end_step()
+        if self.call_steps is not None and not self.call_checked:
+            return cs + self.call_steps
         return cs + self.settle_steps
 
     def next_phase(self) -> bool:
         """At :meth:`end_step`: begin the next phase, if any (True: the episode goes on).
-        At the end of the settle time the capture's verdict state is read (``settled``) and
-        the tug test, when on, starts; its phases follow (``tug.TugTest``)."""
+        With the early call, at half the settle time a clear success is read as the
+        settled state (``settled``) and ends the episode; anything else settles on.  At the
+        end of the settle time the capture's verdict state is read (``settled``) and the
+        tug test, when on, starts; its phases follow (``tug.TugTest``)."""
+        if self.closing_active and self.call_steps is not None and not self.call_checked:
+            self.call_checked = True
+            terms, pairs = self.cqi(), self.locked_pairs
+            if clear_success(terms.cqi, pairs, len(self.s.drawstring.locked),
+                             self.cfg.success_cqi):
+                self.settled = (terms, pairs, self.step)
+                self.called_early = True
+                return False
+            return True
         if not self.closing_active or self.tug is None:
             return False
         if not self.tug.started:
@@ -380,6 +399,8 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         settled = terms.to_dict()
         cqi_val = terms.cqi
         success, reason = capture_verdict(cqi_val, n_l, cfg.success_cqi, cfg.success_locked_pairs)
+        if sim.called_early:                   # T counts the whole settle time
+            step = sim.closing_step + sim.settle_steps
         completion = (sim.launch_step + step) * sim.dt
     return EpisodeResult(
         success=success, settled_cqi=cqi_val, locked_pairs=n_l,

@@ -109,6 +109,13 @@ def pairs_fail(locked_pairs: int, min_locked_pairs: int = 10) -> bool:
     return locked_pairs < min_locked_pairs
 
 
+def clear_success(cqi: float, locked_pairs: int, ring_pairs: int, max_cqi: float = 2.0) -> bool:
+    """A success with a margin, which the early call reads (docs/model.md §7): the CQI at
+    most half of max_cqi and every one of the ring's ``ring_pairs`` drawstring pairs
+    locked (a NaN CQI is not clear)."""
+    return cqi <= 0.5 * max_cqi and locked_pairs >= ring_pairs
+
+
 def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
                     min_locked_pairs: int = 10) -> tuple[bool, str]:
     """Success rule of docs/model.md §7: I*_CQ <= max_cqi and n_L >= min_locked_pairs.

@@ -378,6 +378,11 @@ def sim_config_of(values: dict) -> SimConfig:
         raise ConfigError(f"sim_config: got {text!r}; must be a JSON object of SimConfig fields")
     data["settle_time"] = float(values["settle_time"])
     data["horizon"] = float(values["horizon"])
+    if data.get("early_call"):
+        # the monitor judges a state at its end step without the call's check
+        raise ConfigError("sim_config: field 'early_call' is not supported through ROS (the "
+                          "capture monitor reads the settled state at the settle time); "
+                          "leave it false")
     try:
         return SimConfig.from_dict(data)
     except (ConfigError, TypeError, ValueError) as exc:
