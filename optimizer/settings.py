@@ -180,7 +180,8 @@ class RunSettings:
         fidelity: phase of :data:`FIDELITY_PHASES` -> the fidelity its evaluations run
             at: :data:`REFERENCE_FIDELITY` (the problem as given; the default of every
             phase) or a name of ``problem.fidelities`` (the simulator's: "exploration",
-            the implicit step at 2 ms with 8 sweeps, tethernet_ros/core/fidelity.py), checked against
+            the implicit step at 2 ms with 8 sweeps and the early call,
+            tethernet_ros/core/fidelity.py), checked against
             the problem when the run opens.  Only the :data:`EXPLORING_PHASES` ("initial":
             the seed points, "iterations") may leave the reference; "racing" and
             "validation" must stay at it (every claim a run reports is a reference-fidelity

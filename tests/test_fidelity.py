@@ -60,17 +60,19 @@ def test_reference_fidelity_is_the_default_bit_for_bit(tmp_path):
     assert _outcome(got) == _outcome(want)
 
 
-def test_exploration_sets_the_step_to_2_ms_and_8_sweeps_and_nothing_else():
+def test_exploration_sets_the_step_to_2_ms_8_sweeps_and_the_early_call_and_nothing_else():
     base = SimConfig(settle_time=2.0, tumble={"rate_deg_s": 2.0})
     fast = at_fidelity(base, EXPLORATION)
     assert fast.implicit_dt == 0.002 and fast.step_for(1.0) == 0.002
-    assert fast.implicit_iterations == 8
+    assert fast.implicit_iterations == 8 and fast.early_call
     assert base.implicit_dt == 0.001 and base.implicit_iterations == 4     # not changed
-    changed = ("implicit_dt", "implicit_iterations")
+    assert not base.early_call
+    changed = ("implicit_dt", "implicit_iterations", "early_call")
     assert {k: v for k, v in fast.to_dict().items() if k not in changed} == \
         {k: v for k, v in base.to_dict().items() if k not in changed}
     _, config = _cli_config("validate", "--design", "baseline", "--fidelity", "exploration")
-    assert config == SimConfig().replace(implicit_dt=0.002, implicit_iterations=8)
+    assert config == SimConfig().replace(implicit_dt=0.002, implicit_iterations=8,
+                                         early_call=True)
     assert FIDELITIES == (REFERENCE, EXPLORATION)
 
 
@@ -78,6 +80,9 @@ def test_exploration_sets_the_step_to_2_ms_and_8_sweeps_and_nothing_else():
     (SimConfig(implicit_dt=5e-4), "'implicit_dt' is 0.0005"),
     (SimConfig(dt=1e-3), "'dt' is 0.001"),
     (SimConfig(implicit_iterations=6), "'implicit_iterations' is 6"),
+    (SimConfig(early_call=True), "'early_call' is True"),
+    (SimConfig(tether_order="chain", tug={"enabled": True, "peak_tension": 400.0}),
+     "config field 'early_call': the tug test starts"),
     (SimConfig.preset("spec-text"), "'integrator' is 'explicit'"),
     (SimConfig(metric_rate=1000.0), "config field 'implicit_dt': 1/(metric_rate*implicit_dt)"),
 ])

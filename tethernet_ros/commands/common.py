@@ -148,16 +148,18 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
 
 def add_fidelity_argument(p: argparse.ArgumentParser) -> None:
     """--fidelity: simulate at the reference fidelity (the configuration as given, the
-    default) or at exploration's (the implicit step at 2 ms with 8 sweeps; core/fidelity.py)."""
+    default) or at exploration's (the implicit step at 2 ms with 8 sweeps and the early
+    call; core/fidelity.py)."""
     from ..core.fidelity import FIDELITIES, REFERENCE
 
     p.add_argument("--fidelity", choices=FIDELITIES, default=REFERENCE,
                    help="reference: the configuration as given (default); exploration: the "
-                        "same with the implicit step at 2 ms and 8 solver sweeps, at "
-                        "0.61-0.82 of the CPU time, whose statistics matched the "
-                        "reference's on 14 designs in docs/studies/fidelity.md (not a "
+                        "same with the implicit step at 2 ms and 8 solver sweeps, and a "
+                        "clear success called at half the settle time (early_call), at "
+                        "0.39-0.61 of the CPU time, whose statistics matched the "
+                        "reference's on the designs of docs/studies/fidelity.md (not a "
                         "reference-fidelity result; needs the default 1 ms implicit step "
-                        "and 4 sweeps in --config)")
+                        "and 4 sweeps in --config, and early_call off)")
 
 
 def fidelity_config(args, config):

@@ -90,7 +90,8 @@ def add_arguments(p):
     p.add_argument("--explore-fidelity", choices=FIDELITIES, default=REFERENCE,
                    help="the fidelity of the seed points and the iterations: reference (the "
                         "configuration as given, the default) or exploration (the implicit "
-                        "step at 2 ms with 8 sweeps, at 0.61-0.82 of the CPU time; its P*_s "
+                        "step at 2 ms with 8 sweeps and the early call, at 0.39-0.61 of the "
+                        "CPU time; its P*_s "
                         "matched the reference's on the Cases' designs and the reference "
                         "designs: docs/studies/fidelity.md).  Racing and validation always "
                         "run at the reference, so every result the run reports is a "

@@ -3,10 +3,13 @@ home of what each changes.
 
 ``reference``: the configuration as given, unchanged bit for bit (every published number,
 every validation).  ``exploration``: the same configuration with the implicit method's
-step at 2 ms instead of 1 ms and 8 solver sweeps instead of 4, at 0.61-0.82 of the
-reference's CPU time.  On the ten Case designs and the four reference designs of
-docs/studies/fidelity.md its P*_s is within the smaller 95 % half-width of the
-reference's (N = 100, common random numbers) and mean T within 0.031 %.  Its first form,
+step at 2 ms instead of 1 ms and 8 solver sweeps instead of 4, and the early call (a
+clear success read at half the settle time ends the episode; config.py), at 0.39-0.61 of
+the reference's CPU time (0.61-0.82 without the call).  On the ten Case designs and the
+four reference designs of docs/studies/fidelity.md the 2 ms step's P*_s is within the
+smaller 95 % half-width of the reference's (N = 100, common random numbers) and mean T
+within 0.031 %; with the early call added, so is it on six of them held out from the
+call's choice (base seed 1).  Its first form,
 2 ms with 4 sweeps (docs/studies/step.md), lost 11 points of P*_s in Case 2's fast corner:
 the closed net, whipping about the stage, gained energy there and was thrown off.  The
 method's energy invariant is not checked at 2 ms, so exploration is not the default and no
@@ -29,18 +32,18 @@ __all__ = ["FIDELITIES", "REFERENCE", "EXPLORATION", "FIDELITY_CHANGES",
 REFERENCE = "reference"
 EXPLORATION = "exploration"
 #: fidelity -> the SimConfig fields it sets (s for the steps); source of exploration's
-#: 2 ms and 8 sweeps: docs/studies/fidelity.md
+#: 2 ms, 8 sweeps and early call: docs/studies/fidelity.md
 FIDELITY_CHANGES: dict[str, dict] = {
     REFERENCE: {},
-    EXPLORATION: {"implicit_dt": 2e-3, "implicit_iterations": 8},
+    EXPLORATION: {"implicit_dt": 2e-3, "implicit_iterations": 8, "early_call": True},
 }
 #: fidelity -> the SimConfig field values it needs in the configuration it is applied to
 #: (the cells docs/studies/fidelity.md compared with: the implicit method at its 1 ms step
-#: and 4 sweeps)
+#: and 4 sweeps, read at the settle time)
 FIDELITY_REQUIRES: dict[str, dict] = {
     REFERENCE: {},
     EXPLORATION: {"integrator": "implicit", "dt": 0.0, "implicit_dt": 1e-3,
-                  "implicit_iterations": 4},
+                  "implicit_iterations": 4, "early_call": False},
 }
 #: the fidelity names, the reference first
 FIDELITIES: tuple[str, ...] = tuple(FIDELITY_CHANGES)
@@ -62,7 +65,8 @@ def check_fidelity(name, field: str = "fidelity") -> str:
 
 def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> SimConfig:
     """``config`` simulated at ``fidelity``: ``reference`` returns ``config`` itself;
-    ``exploration`` a copy with :data:`FIDELITY_CHANGES` applied (implicit step 2 ms).
+    ``exploration`` a copy with :data:`FIDELITY_CHANGES` applied (implicit step 2 ms, 8
+    sweeps, the early call).
     FidelityError when the name is unknown or ``config`` lacks a field value
     :data:`FIDELITY_REQUIRES` names (``field``: how the caller names the fidelity)."""
     check_fidelity(fidelity, field)
@@ -76,7 +80,7 @@ def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> Si
                 f"{field} {fidelity!r}: config field '{name}' is {got!r}; the {fidelity} "
                 f"fidelity sets {_changes_text(changes)} and needs {name} = {want!r} "
                 f"(docs/studies/fidelity.md measured it against the implicit method at 1 ms "
-                f"and 4 sweeps); "
+                f"and 4 sweeps, read at the settle time); "
                 f"leave '{name}' at {want!r} or use {field} {REFERENCE!r}")
     try:
         return config.replace(**changes)
@@ -92,5 +96,6 @@ def fidelity_text(fidelity: str) -> str:
 
 
 def _changes_text(changes: dict) -> str:
-    return ", ".join(f"{k} = {v:g} s" if k.endswith("dt") else f"{k} = {v!r}"
+    return ", ".join(f"{k} = {v:g} s" if k.endswith("dt") else
+                     f"{k} = {str(v).lower()}" if isinstance(v, bool) else f"{k} = {v!r}"
                      for k, v in changes.items())
