@@ -53,3 +53,21 @@ def test_a_lane_count_is_chosen_and_errors_name_the_field():
     with pytest.raises(ValueError, match="lanes"):
         BatchRunner(REFERENCE_DESIGNS["time-min"], SHORT, lanes=-1)
     assert list(BatchRunner(REFERENCE_DESIGNS["time-min"], SHORT, lanes=2).run([])) == []
+
+
+def test_lanes_called_early_are_their_single_episodes_bit_for_bit():
+    """The exploration fidelity's early call (config.py) ends some lanes at half the settle
+    time and lets the others settle on: each lane is still its single episode."""
+    from tethernet_ros.core.fidelity import EXPLORATION, at_fidelity
+
+    design = REFERENCE_DESIGNS["time-min"]
+    cfg = at_fidelity(SimConfig(settle_time=8.0, horizon=12.0), EXPLORATION)
+    samples = [(i, NoiseModel().sample(20 + i)) for i in range(4)]
+    single = {i: run_episode(design, s, cfg, record_trace=True) for i, s in samples}
+    full = 8.0 / cfg.implicit_dt
+    called = {i for i, r in single.items() if r.steps < r.closing_time / cfg.implicit_dt + full - 1}
+    assert called, "no sample is called early any more"
+    got = {tag: r for tag, r, _ in BatchRunner(design, cfg, lanes=2,
+                                                record_trace=True).run(samples)}
+    for i in single:
+        assert _outcome(got[i]) == _outcome(single[i]), i
