@@ -16,8 +16,6 @@ import math
 import sys
 from pathlib import Path
 
-from scipy.stats import binomtest
-
 from tethernet_ros.core.config import SimConfig
 from tethernet_ros.core.design import load_design
 from tethernet_ros.core.fidelity import FIDELITIES, at_fidelity
@@ -26,6 +24,7 @@ from tethernet_ros.montecarlo.evaluate import evaluate
 from tethernet_ros.montecarlo.process_pool import ProcessPoolBackend
 from tethernet_ros.montecarlo.records import SampleResult
 from tethernet_ros.studies.files import samples_by_seed
+from tethernet_ros.studies.paired import mcnemar_p
 
 #: the reading times compared with the settle time's verdict (s after closing starts)
 READ_AT = (6.0, 8.0, 10.0, 12.0, 15.0)
@@ -60,8 +59,7 @@ def compare(truth: dict[int, SampleResult], early: dict[int, SampleResult], s: f
         want, got = truth[seed].success, verdict_at(early[seed], s, config)
         lost += want and not got
         gained += got and not want
-    p = binomtest(lost, lost + gained, 0.5).pvalue if lost + gained else 1.0
-    return len(seeds), lost, gained, float(p)
+    return len(seeds), lost, gained, mcnemar_p(lost, gained)
 
 
 def main(argv=None) -> int:
@@ -104,8 +102,7 @@ def main(argv=None) -> int:
                   + " | ".join(cells) + " |")
         cells = []
         for lost, gained in total.values():
-            pv = binomtest(lost, lost + gained, 0.5).pvalue if lost + gained else 1.0
-            cells.append(f"{gained - lost:+d} ({lost} / {gained}), {pv:.2g}")
+            cells.append(f"{gained - lost:+d} ({lost} / {gained}), {mcnemar_p(lost, gained):.2g}")
         print("| all | | | " + " | ".join(cells) + " |")
     return 0
 

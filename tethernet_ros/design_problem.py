@@ -18,7 +18,7 @@ import numpy as np
 from optimizer.run import run_optimization
 
 from . import machine, montecarlo
-from .core.config import SimConfig
+from .core.config import ConfigError, SimConfig
 from .core.fidelity import FIDELITIES, REFERENCE, at_fidelity
 from .core.shapes.catalogue import design_bounds_of
 from .core.design import (PUBLISHED_OUTCOMES, REFERENCE_DESIGNS, VARIABLE_NAMES, Design,
@@ -131,7 +131,6 @@ def optimize_design(case, *, backend: montecarlo.EpisodeBackend | None = None,
     Returns the run's summary.
     """
     if config is not None and config.early_call:
-        from .core.config import ConfigError
         raise ConfigError("config field 'early_call': an optimisation races and validates on "
                           "the settled state of its configuration; leave early_call off (the "
                           "seed points and iterations may use it through a fidelity)")

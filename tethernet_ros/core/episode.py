@@ -43,15 +43,14 @@ class CaptureSimulation:
         self.net_masses = scenario.bodies.mass[scenario.net_nodes].copy()
         self.settle_steps = int(round(self.cfg.settle_time / self.dt))
         #: the early call (config.py): steps from closing activation to its check (None:
-        #: off), whether it was checked, and whether it called the capture there
+        #: off), and whether it was checked
         self.call_steps = (int(round(0.5 * self.cfg.settle_time / self.dt))
                            if self.cfg.early_call else None)
         self.call_checked = False
-        self.called_early = False
         self.horizon_steps = int(round(self.cfg.horizon / self.dt))
         #: the tug test after the settle time (None: off), and what was read when it began
         self.tug = TugTest(self, self.cfg.tug) if self.cfg.tug.enabled else None
-        self.settled: tuple[CQITerms, int, int] | None = None
+        self.settled: tuple[CQITerms, int] | None = None
 
     # -- state ---------------------------------------------------------------------
     @property
@@ -117,14 +116,13 @@ class CaptureSimulation:
             terms, pairs = self.cqi(), self.locked_pairs
             if clear_success(terms.cqi, pairs, len(self.s.drawstring.locked),
                              self.cfg.success_cqi):
-                self.settled = (terms, pairs, self.step)
-                self.called_early = True
+                self.settled = (terms, pairs)
                 return False
             return True
         if not self.closing_active or self.tug is None:
             return False
         if not self.tug.started:
-            self.settled = (self.cqi(), self.locked_pairs, self.step)
+            self.settled = (self.cqi(), self.locked_pairs)
             self.tug.start()
             return True
         if self.tug.outcome is None:
@@ -394,14 +392,13 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         reason = f"closing never triggered within the {cfg.horizon:g} s horizon"
         completion = sim.launch_time + cfg.horizon
     else:
-        terms, n_l, step = (sim.settled if sim.settled is not None
-                            else (sim.cqi(), sim.locked_pairs, sim.step))
+        terms, n_l = sim.settled if sim.settled is not None else (sim.cqi(), sim.locked_pairs)
         settled = terms.to_dict()
         cqi_val = terms.cqi
         success, reason = capture_verdict(cqi_val, n_l, cfg.success_cqi, cfg.success_locked_pairs)
-        if sim.called_early:                   # T counts the whole settle time
-            step = sim.closing_step + sim.settle_steps
-        completion = (sim.launch_step + step) * sim.dt
+        # T: the settle time after closing starts (docs/model.md §7), also when the early
+        # call read the state sooner
+        completion = (sim.launch_step + sim.closing_step + sim.settle_steps) * sim.dt
     return EpisodeResult(
         success=success, settled_cqi=cqi_val, locked_pairs=n_l,
         closing_time=sim.closing_time if sim.closing_active else math.nan,

@@ -51,6 +51,13 @@ class CellStats:
                    sum(waits) / len(waits) if waits else math.nan)
 
 
+def mcnemar_p(a_only: int, b_only: int) -> float:
+    """McNemar's exact two-sided p of paired verdicts: ``a_only`` samples succeed in a
+    alone, ``b_only`` in b alone (1 when none differ)."""
+    flips = a_only + b_only
+    return float(binomtest(a_only, flips, 0.5).pvalue) if flips else 1.0
+
+
 @dataclass(frozen=True)
 class PairedStats:
     """Cell b against cell a over the same samples."""
@@ -95,9 +102,7 @@ class PairedStats:
                 a_only += 1
             elif by_seed[s.seed] and not s.success:
                 b_only += 1
-        flips = a_only + b_only
-        p = binomtest(a_only, flips, 0.5).pvalue if flips else 1.0
-        return cls(a, b, flips, a_only, b_only, float(p))
+        return cls(a, b, a_only + b_only, a_only, b_only, mcnemar_p(a_only, b_only))
 
 
 def paired_cells(a, b) -> PairedStats | None:
