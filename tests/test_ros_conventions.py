@@ -70,9 +70,9 @@ def test_launch_name_and_namespace_keep_the_recorder_apart(tmp_path):
             (graph.names(), log.read_text(errors="replace"))
         listed = [n for n, ns in graph.node.get_node_names_and_namespaces() if ns == "/launched"]
         assert sorted(listed) == ["capture", "capture_recorder"]          # each name once
-        own = graph.result(graph.params("/launched/capture").list_parameters()).result.names
+        own = graph.ask(graph.params("/launched/capture").list_parameters).result.names
         assert "horizon" in own and "topics.net_state" in own
-        rec = graph.result(graph.params("/launched/capture_recorder").list_parameters())
+        rec = graph.ask(graph.params("/launched/capture_recorder").list_parameters)
         assert "use_sim_time" in rec.result.names and "horizon" not in rec.result.names
         assert proc.poll() is None
         assert "already registered" not in log.read_text(errors="replace")
@@ -97,7 +97,7 @@ def test_suite_nodes_have_unique_names(suite):
 def set_param(graph: Graph, client: AsyncParameterClient, name: str, value):
     from rclpy.parameter import Parameter
 
-    return graph.result(client.set_parameters([Parameter(name, value=value)])).results[0]
+    return graph.ask(client.set_parameters, [Parameter(name, value=value)]).results[0]
 
 
 def test_every_parameter_is_described_with_its_range(suite):
@@ -105,9 +105,9 @@ def test_every_parameter_is_described_with_its_range(suite):
     try:
         for node in NODES:
             client = graph.params(f"/{node}")
-            names = graph.result(client.list_parameters()).result.names
+            names = graph.ask(client.list_parameters).result.names
             assert set(PARAMETERS[node]) <= set(names), node
-            described = graph.result(client.describe_parameters(names)).descriptors
+            described = graph.ask(client.describe_parameters, names).descriptors
             for d in described:
                 assert d.description, (node, d.name)
                 spec = PARAMETERS[node].get(d.name)
@@ -155,7 +155,7 @@ def test_bad_parameter_values_are_refused_with_the_reason(suite):
         r = set_param(graph, sim, "queue_depth", 10)
         assert not r.successful and "read-only" in r.reason
         # the values stayed; a good value is taken (and the node still serves)
-        got = graph.result(capture.get_parameters(["horizon", "compression"])).values
+        got = graph.ask(capture.get_parameters, ["horizon", "compression"]).values
         assert (got[0].double_value, got[1].string_value) == (120.0, "zstd")
         assert set_param(graph, capture, "horizon", 100.0).successful
         assert set_param(graph, capture, "horizon", 120.0).successful

@@ -72,7 +72,7 @@ def test_launch_arguments_reach_the_nodes(tmp_path, case):
         for node, name in (("actuator_node", "builtin_policy"), ("capture_node", "lockstep"),
                            ("capture_node", "horizon")):
             client = graph.params(f"/{node}")
-            got[name] = graph.result(client.get_parameters([name])).values[0]
+            got[name] = graph.ask(client.get_parameters, [name]).values[0]
         assert got["builtin_policy"].bool_value is builtin, values
         assert got["lockstep"].bool_value is lockstep, values
         assert got["horizon"].double_value == 60.0           # a `-p` beside the file counts too
