@@ -25,6 +25,15 @@ Methods (``--methods``, comma-separated):
   fresh          Wilson rule + fresh samples (no racing)
   shared         Wilson rule + the shared-luck model (no racing)
 
+``--explore-fidelity`` searches (seed points and model-based iterations) at the problem's
+exploration fidelity, whose verdicts differ from the truth's by a stated discrepancy
+(``--explore-jitter``: how often a verdict flips, 0.5 near the simulator's 2 ms step;
+``--explore-shift``: a bias of the probit, > 0 optimistic), and races and validates at
+the reference, as ``tethernet optimize --explore-fidelity exploration`` does.
+``--pair FILE`` prints, per method, the paired difference of this file's replications
+from FILE's (the same replication numbers: the same luck), regret with its standard
+error and the truly-feasible count of each.
+
 Each finished replication is appended to ``--out`` (JSON lines) at once; a rerun skips
 the (method, replication) pairs already there with the same configuration, so a killed
 benchmark resumes (after a change of the optimiser, start another ``--out``).
@@ -32,7 +41,8 @@ benchmark resumes (after a change of the optimiser, start another ``--out``).
 
     .venv/bin/python benchmarks/bench_replication.py [--replications 30] [--methods ...]
         [--out out/bench/replication.jsonl] [--seed-points 10] [--iterations 60]
-        [--table] [--markdown]
+        [--explore-fidelity [--explore-jitter 0.5] [--explore-shift 0]]
+        [--table] [--markdown] [--pair OTHER.jsonl]
 """
 from __future__ import annotations
 
@@ -99,11 +109,21 @@ def configuration(args) -> dict:
             "validation_candidates": args.validation_candidates,
             "racing_candidates": args.racing_candidates, "racing_round": args.racing_round,
             "racing_budget": args.racing_budget, "gp_restarts": args.gp_restarts,
-            "candidates": args.candidates, "problem": problem_of(args).settings()}
+            "candidates": args.candidates, "problem": problem_of(args).settings(),
+            "search_fidelity": search_fidelity(args)}
+
+
+def search_fidelity(args) -> dict | None:
+    """None when the search runs at the reference; else the exploration's discrepancy."""
+    if not args.explore_fidelity:
+        return None
+    return {"fidelity": "exploration", "jitter": args.explore_jitter,
+            "shift": args.explore_shift}
 
 
 def problem_of(args) -> LatentDifficulty:
-    return LatentDifficulty(dims=args.dims, penalty=args.penalty)
+    return LatentDifficulty(dims=args.dims, penalty=args.penalty,
+                            jitter=args.explore_jitter, shift=args.explore_shift)
 
 
 def settings_for(method: str, r: int, args) -> RunSettings:
@@ -118,6 +138,8 @@ def settings_for(method: str, r: int, args) -> RunSettings:
                   sample_seed=3 * r + 1, validation_seed=3 * r + 2, racing_seed=3 * r + 3,
                   racing_candidates=args.racing_candidates, racing_round=args.racing_round,
                   racing_budget=args.racing_budget, optimizer_options=options)
+    if args.explore_fidelity:
+        fields["fidelity"] = {"initial": "exploration", "iterations": "exploration"}
     return RunSettings(**{**fields, **METHODS[method]})
 
 
@@ -236,6 +258,40 @@ def table(records: list[dict], truth: dict, markdown: bool) -> str:
     return "\n".join(out) + "\n" + foot
 
 
+def paired(records: list[dict], others: list[dict], markdown: bool) -> str:
+    """Per method, over the replications in both: this file's regret minus the other's
+    (mean, its standard error, how many are lower / equal / higher) and the truly
+    feasible choices of each."""
+    head = ["method", "pairs", "regret this - other: mean", "standard error",
+            "lower / same / higher", "truly meets C_P: this", "other"]
+    by_other = {(r["method"], r["replication"]): r for r in others}
+    lines = []
+    for method in METHODS:
+        pairs = [(r, by_other[(method, r["replication"])]) for r in records
+                 if r["method"] == method and (method, r["replication"]) in by_other]
+        if not pairs:
+            continue
+        d = [a["regret"] - b["regret"] for a, b in pairs
+             if a["regret"] is not None and b["regret"] is not None]
+        n = len(d)
+        mean = sum(d) / n if n else math.nan
+        se = (math.sqrt(sum((v - mean) ** 2 for v in d) / (n - 1) / n) if n > 1
+              else math.nan)
+        lines.append([method, str(len(pairs)), f"{mean:+.4f}", f"{se:.4f}",
+                      f"{sum(v < -1e-12 for v in d)} / {sum(abs(v) <= 1e-12 for v in d)} / "
+                      f"{sum(v > 1e-12 for v in d)}",
+                      f"{sum(a['truly_meets'] for a, _ in pairs)}/{len(pairs)}",
+                      f"{sum(b['truly_meets'] for _, b in pairs)}/{len(pairs)}"])
+    if markdown:
+        out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        return "\n".join(out + ["| " + " | ".join(row) + " |" for row in lines])
+    widths = [max(len(h), *(len(row[i]) for row in lines)) if lines else len(h)
+              for i, h in enumerate(head)]
+    out = ["  ".join(h.ljust(w) for h, w in zip(head, widths))]
+    return "\n".join(out + ["  ".join(c.ljust(w) for c, w in zip(row, widths))
+                            for row in lines])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--replications", type=int, default=30)
@@ -258,6 +314,17 @@ def main(argv=None) -> int:
                     help="GP fit restarts (default 0: in two dimensions restarts rarely "
                          "change a fit, and they triple its cost; runs use 2)")
     ap.add_argument("--candidates", type=int, default=0, help="acquisition candidates (0: default)")
+    ap.add_argument("--explore-fidelity", action="store_true",
+                    help="search at the exploration fidelity; race and validate at the "
+                         "reference")
+    ap.add_argument("--explore-jitter", type=float, default=0.5,
+                    help="the exploration's own noise on a verdict, in [0, 1) (default 0.5: "
+                         "flip rates near the simulator's 2 ms step)")
+    ap.add_argument("--explore-shift", type=float, default=0.0,
+                    help="the exploration's bias on the probit scale, in [-3, 3] (> 0 "
+                         "optimistic; default 0)")
+    ap.add_argument("--pair", default=None,
+                    help="another results file: print the paired differences from it")
     ap.add_argument("--table", action="store_true", help="print the file's table, run nothing")
     ap.add_argument("--markdown", action="store_true")
     args = ap.parse_args(argv)
@@ -266,8 +333,13 @@ def main(argv=None) -> int:
     bad = sorted(set(methods) - set(METHODS))
     if bad:
         ap.error(f"--methods: unknown {bad}; known: {', '.join(METHODS)}")
+    if not args.explore_fidelity and (args.explore_jitter != 0.5 or args.explore_shift != 0.0):
+        ap.error("--explore-jitter and --explore-shift apply only with --explore-fidelity")
     path = Path(args.out)
-    problem = problem_of(args)
+    try:
+        problem = problem_of(args)
+    except ValueError as e:
+        ap.error(f"--explore-{e}")
     truth = {"f_star": problem.optimum(CASE_MASS.p_threshold),
              "margins": {str(c): problem.optimum(c) - problem.optimum(CASE_MASS.p_threshold)
                          for c in MARGIN_LEVELS}}
@@ -290,6 +362,13 @@ def main(argv=None) -> int:
     wanted = set(range(args.first, args.first + args.replications))
     shown = [r for r in records if r["method"] in methods and r["replication"] in wanted]
     print(table(shown, truth, args.markdown))
+    if args.pair:
+        print(f"\npaired with {args.pair} (this minus that, the same replications):")
+        same = {k: v for k, v in config.items() if k != "search_fidelity"}
+        others = [r for r in load(Path(args.pair))
+                  if {k: v for k, v in r.get("config", {}).items()
+                      if k != "search_fidelity"} == same]
+        print(paired(shown, others, args.markdown))
     return 0
 
 

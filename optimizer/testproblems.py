@@ -280,18 +280,45 @@ class LatentDifficulty(TestProblem):
     from 0.5: ``c1`` is raised by ``penalty * sum_k (x_k - 0.5)^2`` (as most of Case 1's
     variables act on P*_s and not on m_a).  Designs of almost one objective then differ
     in reliability, the near-copies of Case 1's edge; the optimum keeps x_k = 0.5.
+
+    **An exploration fidelity with a stated discrepancy** (``fidelities``,
+    :meth:`at_fidelity`; docs/cases/replication.md, "With the exploration fidelity").
+    Sample ``i`` of design x at exploration fails when ``sqrt(1 - jitter^2) Phi^-1(u_i) +
+    jitter e_i(x) >= Phi^-1(P_s(x)) + shift``.  ``e_i(x)`` is a standard normal of its own
+    for each design and sample: the step's own flips, unrelated from design to design as
+    the simulator's are.  ``jitter`` in [0, 1) sets how often a verdict differs from the
+    reference's without moving P_s (the left side stays standard normal): 0.5 flips 16 %
+    of the verdicts at P_s = 0.61, 9.6 % at 0.85, 1.9 % at 0.98 and 1.1 % at 0.99, near
+    the rates measured between the simulator's 2 ms and 1 ms steps (17, 17, 2 and 0-1 %
+    on designs of those P*_s, N = 100, docs/studies/fidelity.md).  ``shift`` biases it:
+    > 0 optimistic (exploration sees a higher P_s than is true: P_s = 0.98 seen as 0.9907
+    at +0.3), < 0 pessimistic (the first exploration form's -11 points at Case 2's
+    optimum is about -1.1).  With both 0 the verdicts are the reference's; the estimates'
+    key differs all the same.
     """
 
     name = "latent_difficulty"
     horizon = math.nan
     grid_points = 801
 
+    fidelities = ("exploration",)
+
     def __init__(self, p_min: float = 0.98, s: float = 0.1, dims: int = 2,
-                 penalty: float = 0.4):
+                 penalty: float = 0.4, jitter: float = 0.5, shift: float = 0.0,
+                 fidelity: str = "reference"):
         self.p_min, self.s = float(p_min), float(s)
         self.dims, self.penalty = int(dims), float(penalty)
+        self.jitter, self.shift, self.fidelity = float(jitter), float(shift), str(fidelity)
         if self.dims < 2:
             raise ValueError(f"dims: got {dims!r}; must be >= 2")
+        if not (math.isfinite(self.jitter) and 0.0 <= self.jitter < 1.0):
+            raise ValueError(f"jitter: got {jitter!r}; must be in [0, 1) (the weight of a "
+                             "verdict's own noise on the probit scale)")
+        if not (math.isfinite(self.shift) and abs(self.shift) <= 3.0):
+            raise ValueError(f"shift: got {shift!r}; must be in [-3, 3] (probit scale)")
+        if self.fidelity not in ("reference",) + self.fidelities:
+            raise ValueError(f"fidelity: got {fidelity!r}; must be 'reference' or one of "
+                             f"{self.fidelities}")
         self.bounds = [(0.0, 1.0)] * self.dims
         self.variable_names = tuple(f"x{k + 1}" for k in range(self.dims))
         self.thresholds = {"p_success": self.p_min}
@@ -330,6 +357,18 @@ class LatentDifficulty(TestProblem):
         """The least objective of a design with P_s >= ``p_min`` (computed)."""
         return LatentDifficulty(p_min, self.s).reference_optimum()[1]
 
+    def at_fidelity(self, name: str) -> LatentDifficulty:
+        """The same problem evaluated at fidelity ``name`` ("reference": the truth's
+        verdicts; "exploration": the discrepancy of the class docstring)."""
+        return LatentDifficulty(self.p_min, self.s, self.dims, self.penalty,
+                                self.jitter, self.shift, name)
+
+    def jitters(self, x, base_seed: int, n: int) -> np.ndarray:
+        """e_0..e_{n-1}(x) of ``base_seed``: standard normals drawn in sample order from a
+        stream of the design's own (a longer draw starts with a shorter one)."""
+        digest = zlib.crc32(np.asarray(x, dtype=np.float64).tobytes())
+        return np.random.default_rng([int(base_seed), digest, 7]).standard_normal(int(n))
+
     # --- the DesignProblem
     def mass(self, x) -> float:
         return self.objective(x)
@@ -348,7 +387,14 @@ class LatentDifficulty(TestProblem):
         if n_samples is None:          # TestProblem.evaluate: the noise-free observation
             return super().evaluate(x)
         x = np.asarray(x, dtype=float)
-        ok = self.difficulties(int(base_seed), int(n_samples)) < self.success_probability(x)
+        u = self.difficulties(int(base_seed), int(n_samples))
+        p = self.success_probability(x)
+        if self.fidelity == "reference":
+            ok = u < p
+        else:
+            z = (math.sqrt(1.0 - self.jitter ** 2) * norm.ppf(u)
+                 + self.jitter * self.jitters(x, base_seed, n_samples))
+            ok = z < norm.ppf(p) + self.shift
         m = len(ok) if stop is None else (stop(ok.tolist()) or len(ok))
         k = int(ok[:m].sum())
         lo, hi = wilson_interval(k, m)
@@ -360,7 +406,11 @@ class LatentDifficulty(TestProblem):
                         ci_low=lo, ci_high=hi, cp_low=cp_lo, cp_high=cp_hi,
                         mass=self.objective(x),
                         failures_by_reason={"u_i >= P_s(x)": m - k} if m > k else {},
-                        key=f"{self.name}:{x.tolist()}")
+                        key=f"{self.name}{self._key_tag()}:{x.tolist()}")
+
+    def _key_tag(self) -> str:
+        return ("" if self.fidelity == "reference"
+                else f"@{self.fidelity}(jitter={self.jitter!r},shift={self.shift!r})")
 
     def design_dict(self, x) -> dict:
         return {n: float(v) for n, v in zip(self.variable_names, x)}
@@ -376,6 +426,8 @@ class LatentDifficulty(TestProblem):
                "model_version": self.name}
         if self.dims > 2:
             out.update(dims=self.dims, penalty=self.penalty)
+        if self.fidelity != "reference":
+            out.update(fidelity=self.fidelity, jitter=self.jitter, shift=self.shift)
         return out
 
     def describe(self) -> str:

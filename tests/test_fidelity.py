@@ -166,10 +166,14 @@ def test_settings_fidelity_defaults_to_the_reference_and_is_recorded():
                                                  "racing": REFERENCE, "validation": REFERENCE}
 
 
+class _ReferenceOnly(LatentDifficulty):
+    fidelities = ()
+
+
 def test_a_problem_without_fidelities_refuses_exploration(tmp_path):
     with pytest.raises(SettingError, match="map phase 'initial' to one of the problem's "
                                            "fidelities: 'reference'"):
-        run_optimization("mass", LatentDifficulty(), run_dir=tmp_path / "r", seed_points=2,
+        run_optimization("mass", _ReferenceOnly(), run_dir=tmp_path / "r", seed_points=2,
                          iterations=0, samples=5, validation_samples=0,
                          fidelity={"initial": EXPLORATION})
     assert not (tmp_path / "r").exists()

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.stats import norm
 
 from optimizer.sequential import SequentialRule
 from optimizer.testproblems import LatentDifficulty
@@ -47,6 +48,41 @@ def test_latent_difficulty_optimum_is_the_least_objective_meeting_the_requiremen
     ok = np.array([p.success_probability(v) >= 0.98 for v in X[X.sum(1) < f + 0.02]])
     assert ok.any() and X[X.sum(1) < f + 0.02][ok].sum(1).min() >= f - 1e-9
     assert p.optimum(0.99) > p.optimum(0.985) > f
+
+
+def test_latent_difficulty_exploration_flips_verdicts_at_the_stated_rates():
+    """The exploration fidelity's discrepancy is the one its docstring states: jitter 0
+    and shift 0 give the reference's verdicts; jitter 0.5 leaves P_s where it is and flips
+    about 16 % of the verdicts at P_s = 0.61 and 1.9 % at 0.98; a shift > 0 raises the
+    P_s it sees; a design's noise is the same however many samples are drawn; the
+    estimates carry a key of their own; bad settings name their field."""
+    ref = LatentDifficulty()
+    same = LatentDifficulty(jitter=0.0).at_fidelity("exploration")
+    x = np.array([0.33, 0.43])
+    a, b = ref.evaluate(x, 2000, 4), same.evaluate(x, 2000, 4)
+    assert a.successes == b.successes and a.key != b.key and "@exploration" in b.key
+    explore = ref.at_fidelity("exploration")
+    assert np.array_equal(explore.jitters(x, 4, 50), explore.jitters(x, 4, 500)[:50])
+    from scipy.optimize import brentq
+    n = 40_000
+    u = ref.difficulties(9, n)
+    for p_target, flips in ((0.61, 0.161), (0.98, 0.019)):
+        t = brentq(lambda v: ref.success_probability(np.array([v, 0.43])) - p_target, 0, 1)
+        d = np.array([t, 0.43])
+        ok_ref = u < ref.success_probability(d)
+        ok_exp = np.array([explore.evaluate(d, n, 9).successes])
+        e = explore.evaluate(d, n, 9)
+        assert abs(e.p_success - ok_ref.mean()) < 4 * np.sqrt(flips / n)   # unbiased
+        z = (np.sqrt(0.75) * norm.ppf(u) + 0.5 * explore.jitters(d, 9, n))
+        flipped = np.mean(ok_ref != (z < norm.ppf(ref.success_probability(d))))
+        assert flipped == pytest.approx(flips, abs=0.01)
+        assert ok_exp[0] == int((z < norm.ppf(ref.success_probability(d))).sum())
+        up = LatentDifficulty(shift=0.3).at_fidelity("exploration").evaluate(d, n, 9)
+        assert up.p_success > e.p_success
+    for field, bad in (("jitter", 1.0), ("shift", 4.0), ("fidelity", "fast")):
+        with pytest.raises(ValueError, match=f"^{field}: got"):
+            LatentDifficulty(**{field: bad})
+    assert "jitter" not in ref.settings() and explore.settings()["jitter"] == 0.5
 
 
 def _bench():
@@ -94,3 +130,15 @@ def test_replication_benchmark_short_form(tmp_path, capsys):
     table = capsys.readouterr().out
     assert "replication" not in table.split("method")[0]        # nothing was run again
     assert "f*(0.98) = " in table
+    # searching at the exploration fidelity: its own records, paired with the reference's
+    explore = tmp_path / "rep-explore.jsonl"
+    argv_x = [*argv[:-1], str(explore), "--methods", "racing+fresh", "--explore-fidelity",
+              "--explore-shift", "0.3", "--pair", str(out)]
+    assert bench.main(argv_x) == 0
+    got = [json.loads(line) for line in explore.read_text().splitlines()]
+    assert [r["config"]["search_fidelity"] for r in got] == [
+        {"fidelity": "exploration", "jitter": 0.5, "shift": 0.3}] * 2
+    text = capsys.readouterr().out
+    assert "paired with" in text and "\nracing+fresh  2 " in text
+    with pytest.raises(SystemExit):
+        bench.main([*argv, "--explore-shift", "0.3"])     # only with --explore-fidelity
