@@ -30,8 +30,11 @@ exploration fidelity, whose verdicts differ from the truth's by a stated discrep
 (``--explore-jitter``: how often a verdict flips, 0.5 near the simulator's 2 ms step;
 ``--explore-shift``: a bias of the probit, > 0 optimistic), and races and validates at
 the reference, as ``tethernet optimize --explore-fidelity exploration`` does.
+``--racing-max-samples M`` caps each raced candidate's samples (default: the
+validation's size).
 ``--pair FILE`` prints, per method, the paired difference of this file's replications
-from FILE's (the same replication numbers: the same luck), regret with its standard
+from the records of FILE run under the same settings but for these two (the same
+replication numbers: the same luck), regret with its standard
 error and the truly-feasible count of each.
 
 Each finished replication is appended to ``--out`` (JSON lines) at once; a rerun skips
@@ -109,6 +112,8 @@ def configuration(args) -> dict:
             "validation_candidates": args.validation_candidates,
             "racing_candidates": args.racing_candidates, "racing_round": args.racing_round,
             "racing_budget": args.racing_budget, "gp_restarts": args.gp_restarts,
+            **({"racing_max_samples": args.racing_max_samples}
+               if args.racing_max_samples else {}),
             "candidates": args.candidates, "problem": problem_of(args).settings(),
             "search_fidelity": search_fidelity(args)}
 
@@ -137,7 +142,8 @@ def settings_for(method: str, r: int, args) -> RunSettings:
                   validation_candidates=args.validation_candidates, seed=r,
                   sample_seed=3 * r + 1, validation_seed=3 * r + 2, racing_seed=3 * r + 3,
                   racing_candidates=args.racing_candidates, racing_round=args.racing_round,
-                  racing_budget=args.racing_budget, optimizer_options=options)
+                  racing_budget=args.racing_budget,
+                  racing_max_samples=args.racing_max_samples, optimizer_options=options)
     if args.explore_fidelity:
         fields["fidelity"] = {"initial": "exploration", "iterations": "exploration"}
     return RunSettings(**{**fields, **METHODS[method]})
@@ -310,6 +316,8 @@ def main(argv=None) -> int:
     ap.add_argument("--racing-candidates", type=int, default=5)
     ap.add_argument("--racing-round", type=int, default=100)
     ap.add_argument("--racing-budget", type=int, default=2000)
+    ap.add_argument("--racing-max-samples", type=int, default=0,
+                    help="racing samples of one candidate, at most (0: the validation's)")
     ap.add_argument("--gp-restarts", type=int, default=0,
                     help="GP fit restarts (default 0: in two dimensions restarts rarely "
                          "change a fit, and they triple its cost; runs use 2)")
@@ -364,10 +372,11 @@ def main(argv=None) -> int:
     print(table(shown, truth, args.markdown))
     if args.pair:
         print(f"\npaired with {args.pair} (this minus that, the same replications):")
-        same = {k: v for k, v in config.items() if k != "search_fidelity"}
+        varied = ("search_fidelity", "racing_max_samples")
+        same = {k: v for k, v in config.items() if k not in varied}
         others = [r for r in load(Path(args.pair))
                   if {k: v for k, v in r.get("config", {}).items()
-                      if k != "search_fidelity"} == same]
+                      if k not in varied} == same]
         print(paired(shown, others, args.markdown))
     return 0
 

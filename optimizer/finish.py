@@ -59,7 +59,8 @@ def _racer(case, opt, problem, settings, results_path, emit):
 
     def racer(candidates):
         return race(candidates, sample, case.p_threshold, settings.racing_round,
-                    settings.racing_budget, max_samples=settings.validation_samples,
+                    settings.racing_budget,
+                    max_samples=settings.racing_max_samples or settings.validation_samples,
                     clear_level=selection_level(case, settings))
     return racer
 

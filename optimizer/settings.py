@@ -38,7 +38,7 @@ RUN_VERSION = 1
 MUTABLE = frozenset({"iterations", "validation_samples", "validation_candidates",
                      "validation_rule", "validation_stop", "compare_reference",
                      "racing_candidates", "racing_round", "racing_budget", "racing_seed",
-                     "selection_level"})
+                     "racing_max_samples", "selection_level"})
 #: the value of a ``None`` ("as recorded") setting for a new run; a callable takes the
 #: :class:`~optimizer.cases.Case`
 NEW_RUN_DEFAULTS = {
@@ -88,7 +88,7 @@ _INT_RANGE = {"iterations": (0, None), "seed_points": (1, None), "samples": (1, 
               "sample_seed": (0, SEED_LIMIT - 1), "validation_seed": (0, SEED_LIMIT - 1),
               "validation_candidates": (1, None), "racing_candidates": (0, None),
               "racing_round": (1, None), "racing_budget": (0, None),
-              "racing_seed": (0, SEED_LIMIT - 1)}
+              "racing_seed": (0, SEED_LIMIT - 1), "racing_max_samples": (0, None)}
 
 
 def fresh_base_seed(sample_seed: int, evaluation: int) -> int:
@@ -171,6 +171,9 @@ class RunSettings:
         racing_budget: the most racing samples in all (>= 0).
         racing_seed: base seed of the racing samples (< 1 000 000); must differ from
             ``sample_seed`` and ``validation_seed`` when racing.
+        racing_max_samples: the most racing samples of one candidate, after which it is
+            left undecided (>= 0; 0, the default: ``validation_samples``, as before this
+            setting existed; docs/optimizer.md §5).
         selection_level: one of :data:`SELECTION_LEVELS`: the P*_s that the final
             ranking's posterior probability (``min_probability``) and the race's clearing
             are taken against (docs/optimizer.md §5).
@@ -208,6 +211,7 @@ class RunSettings:
     racing_round: int = 100
     racing_budget: int = 2000
     racing_seed: int = 2
+    racing_max_samples: int = 0
     selection_level: str = "requirement"
     fidelity: Mapping = field(default_factory=dict)
 
@@ -297,7 +301,9 @@ class RunSettings:
                 "fresh_samples": self.fresh_samples, "shared_luck": self.shared_luck,
                 "racing_candidates": self.racing_candidates,
                 "racing_round": self.racing_round, "racing_budget": self.racing_budget,
-                "racing_seed": self.racing_seed, "selection_level": self.selection_level,
+                "racing_seed": self.racing_seed,
+                "racing_max_samples": self.racing_max_samples,
+                "selection_level": self.selection_level,
                 "fidelity": dict(self.fidelity)}
 
     @classmethod

@@ -11,7 +11,7 @@ from optimizer.evaluator import DesignEvaluator
 from optimizer.observation import Observation
 from optimizer.racing import race
 from optimizer.selection import validation_evidence
-from optimizer.settings import fresh_base_seed
+from optimizer.settings import RunSettings, fresh_base_seed
 from optimizer_fakes import SyntheticBackend
 from tethernet_ros.core.design import REFERENCE_DESIGNS
 from tethernet_ros.design_problem import SimulatorProblem, optimize_design
@@ -136,6 +136,35 @@ def test_run_races_before_validating_and_counts_the_racing_samples(tmp_path):
     with pytest.raises(Exception, match="fresh_samples"):
         optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
                         resume=True, **{**kw, "fresh_samples": False})
+
+
+def test_racing_max_samples_caps_each_candidate(tmp_path):
+    """``racing_max_samples``: no candidate is raced past it (one that reaches it
+    undecided is left so), the run records it, and 0 (the default) means the
+    validation's size."""
+    kw = dict(iterations=4, seed_points=6, samples=10, validation_samples=300,
+              validation_candidates=2, racing_round=40, optimizer_options=FAST,
+              fresh_samples=True, racing_candidates=3)
+    s = optimize_design("mass", backend=SyntheticBackend(), run_dir=tmp_path / "r",
+                        racing_max_samples=80, **kw)
+    entries = s["racing"]["entries"]
+    assert entries and all(e["samples"] <= 80 for e in entries)
+    assert all(e["status"] != "racing" for e in entries)
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["racing_max_samples"] == 80
+    assert RunSettings().racing_max_samples == 0
+
+    class Obs:
+        x = None
+
+    calls = []
+
+    def sample(obs, n):                     # always 97.5 %: never decided at 0.98
+        calls.append(n)
+        return type("E", (), {"successes": int(0.975 * n), "n_samples": n})()
+    r = race([Obs()], sample, 0.98, 100, 10_000, max_samples=300)
+    assert r.entries[0].status == "undecided" and r.entries[0].samples == 300
+    assert calls == [100, 200, 300]
 
 
 def test_shared_luck_keeps_near_copies_from_making_the_model_sure():

@@ -36,6 +36,7 @@ from tethernet_ros import cli
     ("racing_budget", -5, "racing_budget: got -5; must be an integer >= 0"),
     ("racing_seed", 0, "racing_seed: got 0; must differ from sample_seed and validation_seed"),
     ("racing_seed", 1, "racing_seed: got 1; must differ from sample_seed and validation_seed"),
+    ("racing_max_samples", -1, "racing_max_samples: got -1; must be an integer >= 0"),
     ("fidelity", {"validation": "exploration"},
      "fidelity: got {'validation': 'exploration'}; must keep 'validation' at 'reference'"),
     ("fidelity", ["exploration"], "fidelity: got ['exploration']; must be a mapping of phases"),

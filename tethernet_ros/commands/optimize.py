@@ -81,6 +81,10 @@ def add_arguments(p):
                    help=f"racing samples in all, at most (default {d.racing_budget})")
     p.add_argument("--racing-seed", type=int, default=d.racing_seed, metavar="S",
                    help=f"base seed of the racing samples (default {d.racing_seed})")
+    p.add_argument("--racing-max-samples", type=int, default=d.racing_max_samples,
+                   metavar="M",
+                   help="racing samples of one candidate, at most, after which it is left "
+                        "undecided (default 0: --validation-samples)")
     p.add_argument("--selection-level", choices=SELECTION_LEVELS, default=d.selection_level,
                    help="what the final ranking and the race take the posterior probability "
                         "and the clearing against: 'requirement' (P*_s >= 0.98) or "
@@ -188,7 +192,7 @@ def run_settings(args) -> RunSettings:
         shared_luck=args.shared_luck,
         racing_candidates=args.racing_candidates, racing_round=args.racing_round,
         racing_budget=args.racing_budget, racing_seed=args.racing_seed,
-        selection_level=args.selection_level,
+        racing_max_samples=args.racing_max_samples, selection_level=args.selection_level,
         fidelity=({p: args.explore_fidelity for p in EXPLORING_PHASES}
                   if args.explore_fidelity != REFERENCE else {}))
 
