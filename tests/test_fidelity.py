@@ -365,3 +365,34 @@ def test_an_optimisation_refuses_the_early_call_in_its_configuration(tmp_path):
                         config=SimConfig(early_call=True), seed_points=2, iterations=0,
                         samples=5, validation_samples=0)
     assert not (tmp_path / "r").exists()
+
+
+def test_sampler_wall_replays_the_samplers_batches_on_the_records():
+    """scripts/sampler_wall.py (docs/cases/README.md, Case 2 at exploration): a batch's
+    groups go to the first free worker and last their CPU sums; a design is replayed
+    batch by batch to the case rule's decision, the samples past it counted."""
+    import importlib.util
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from optimizer.cases import CASE_MASS
+
+    path = Path(__file__).parents[1] / "scripts" / "sampler_wall.py"
+    spec = importlib.util.spec_from_file_location("sampler_wall", path)
+    sw = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(sw)
+    # 8 tasks on 2 workers: two groups of 4, the longer one sets the wall
+    assert sw.batch_wall([1.0] * 4 + [2.0] * 4, 2) == 8.0
+    assert sw.batch_wall([3.0], 2) == 3.0
+    backend = SimpleNamespace(batch_size=8, max_batch_size=16)
+    rule = CASE_MASS.sequential_rule(100)
+    fails = {2, 3, 5}                                # the third failure decides at 6
+    cpu = {i: 1.0 for i in range(8)}
+    ok = {i: i not in fails for i in range(8)}
+    wall, drawn, used, drawn_cpu = sw.replay(cpu, ok, rule, backend, 2, 100, 9.0)
+    assert (drawn, used, wall, drawn_cpu) == (8, 6, 4.0, 8.0)
+    # a success at every sample: Case 1 decides feasible at 98 (two failures could not
+    # undo it); each batch of equal costs splits evenly over the two workers
+    wall, drawn, used, drawn_cpu = sw.replay({}, {}, rule, backend, 2, 100, 1.0)
+    assert used == 98 and 98 <= drawn <= 100 and drawn_cpu == drawn
+    assert drawn / 2 <= wall <= drawn / 2 + 1
