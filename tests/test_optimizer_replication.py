@@ -67,16 +67,16 @@ def test_latent_difficulty_exploration_flips_verdicts_at_the_stated_rates():
     n = 40_000
     u = ref.difficulties(9, n)
     for p_target, flips in ((0.61, 0.161), (0.98, 0.019)):
-        t = brentq(lambda v: ref.success_probability(np.array([v, 0.43])) - p_target, 0, 1)
+        t = brentq(lambda v, p=p_target: ref.success_probability(np.array([v, 0.43])) - p,
+                   0, 1)
         d = np.array([t, 0.43])
         ok_ref = u < ref.success_probability(d)
-        ok_exp = np.array([explore.evaluate(d, n, 9).successes])
         e = explore.evaluate(d, n, 9)
         assert abs(e.p_success - ok_ref.mean()) < 4 * np.sqrt(flips / n)   # unbiased
         z = (np.sqrt(0.75) * norm.ppf(u) + 0.5 * explore.jitters(d, 9, n))
         flipped = np.mean(ok_ref != (z < norm.ppf(ref.success_probability(d))))
         assert flipped == pytest.approx(flips, abs=0.01)
-        assert ok_exp[0] == int((z < norm.ppf(ref.success_probability(d))).sum())
+        assert e.successes == int((z < norm.ppf(ref.success_probability(d))).sum())
         up = LatentDifficulty(shift=0.3).at_fidelity("exploration").evaluate(d, n, 9)
         assert up.p_success > e.p_success
     for field, bad in (("jitter", 1.0), ("shift", 4.0), ("fidelity", "fast")):
