@@ -19,7 +19,7 @@ import pytest
 
 pytest.importorskip("rclpy", reason="ROS 2 wheels not installed: run scripts/setup.sh")
 
-from tethernet_ros.bags import MARKER, read_bag  # noqa: E402
+from tethernet_ros.bags import MARKER, BagError, read_bag  # noqa: E402
 from tethernet_ros.core.config import SimConfig  # noqa: E402
 from tethernet_ros.core.design import load_design  # noqa: E402
 from tethernet_ros.core.noise import NoiseModel  # noqa: E402
@@ -80,10 +80,29 @@ def test_idle_nodes_stop_on_signal(tmp_path, sig):
                 p.wait()
 
 
+def recorded(bag: Path, topic: str, every: float = 0.5):
+    """A predicate: the bag being written at ``bag`` holds a message of ``topic`` in a
+    whole chunk on disk (read at most every ``every`` s)."""
+    last = [0.0, False]
+
+    def check() -> bool:
+        if not last[1] and time.monotonic() - last[0] >= every:
+            last[0] = time.monotonic()
+            try:
+                last[1] = bool(read_bag(bag, topics={topic}, decode=False).counts().get(topic))
+            except (BagError, OSError):
+                last[1] = False
+        return last[1]
+    return check
+
+
 def test_nodes_stop_on_sigterm_mid_capture(tmp_path):
     """SIGTERM to each node while an episode runs: first the capture node (recording),
-    whose bag stays marked INCOMPLETE with the reason; then the simulation node, which is
-    still stepping, the monitor and the actuator."""
+    whose bag stays marked INCOMPLETE with the reason and readable up to the stop; then the
+    simulation node, which is still stepping, the monitor and the actuator.  The signal
+    comes once the recorder has written a chunk of states: on a loaded machine the
+    monitor's metrics can reach the test before the recorder has taken any state, and
+    states not yet taken from the middleware when a node stops are not recorded."""
     bag_dir = tmp_path / "bags"
     suite = RosSuite(config=SimConfig(), noise_model=NoiseModel(), bag_dir=bag_dir,
                      log_dir=tmp_path / "logs",
@@ -93,6 +112,8 @@ def test_nodes_stop_on_sigterm_mid_capture(tmp_path):
         future = suite.client.call_async(suite.request(load_design("baseline"), 5,
                                                        bag_name="stopped"))
         assert suite.spin_until(lambda: len(suite.metrics) >= 5, timeout=120), "no states"
+        assert suite.spin_until(recorded(bag_dir / "stopped.partial", TOPICS["net_state"]),
+                                timeout=120), "the recorder wrote no chunk of states"
         for name in ("capture_node", "sim_node", "monitor_node", "actuator_node"):
             if name == "sim_node":
                 n = len(suite.metrics)
