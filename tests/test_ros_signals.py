@@ -100,9 +100,9 @@ def test_nodes_stop_on_sigterm_mid_capture(tmp_path):
     """SIGTERM to each node while an episode runs: first the capture node (recording),
     whose bag stays marked INCOMPLETE with the reason and readable up to the stop; then the
     simulation node, which is still stepping, the monitor and the actuator.  The signal
-    comes once the recorder has written a chunk of states: on a loaded machine the
-    monitor's metrics can reach the test before the recorder has taken any state, and
-    states not yet taken from the middleware when a node stops are not recorded."""
+    comes once the recorder has written a chunk of states: on a loaded machine (make test
+    beside a Case run) the test once had 5 of the monitor's metrics while the recorder
+    had recorded no state, and the stopped bag held none."""
     bag_dir = tmp_path / "bags"
     suite = RosSuite(config=SimConfig(), noise_model=NoiseModel(), bag_dir=bag_dir,
                      log_dir=tmp_path / "logs",
