@@ -254,14 +254,18 @@ def table(records: list[dict], truth: dict, markdown: bool) -> str:
     codes = sorted({r.get("code") for r in records})
     foot += (f"; optimiser source {codes[0]}" if len(codes) == 1
              else f"; WARNING: records of {len(codes)} optimiser sources: {codes}")
+    return render(head, lines, markdown) + ("\n\n" if markdown else "\n") + foot
+
+
+def render(head: list[str], lines: list[list[str]], markdown: bool) -> str:
+    """A table: markdown, or columns padded to their widest cell."""
     if markdown:
         out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-        out += ["| " + " | ".join(row) + " |" for row in lines]
-        return "\n".join(out) + "\n\n" + foot
-    widths = [max(len(h), *(len(row[i]) for row in lines)) for i, h in enumerate(head)]
+        return "\n".join(out + ["| " + " | ".join(row) + " |" for row in lines])
+    widths = [max([len(h), *(len(row[i]) for row in lines)]) for i, h in enumerate(head)]
     out = ["  ".join(h.ljust(w) for h, w in zip(head, widths))]
-    out += ["  ".join(c.ljust(w) for c, w in zip(row, widths)) for row in lines]
-    return "\n".join(out) + "\n" + foot
+    return "\n".join(out + ["  ".join(c.ljust(w) for c, w in zip(row, widths))
+                            for row in lines])
 
 
 def paired(records: list[dict], others: list[dict], markdown: bool) -> str:
@@ -288,14 +292,7 @@ def paired(records: list[dict], others: list[dict], markdown: bool) -> str:
                       f"{sum(v > 1e-12 for v in d)}",
                       f"{sum(a['truly_meets'] for a, _ in pairs)}/{len(pairs)}",
                       f"{sum(b['truly_meets'] for _, b in pairs)}/{len(pairs)}"])
-    if markdown:
-        out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-        return "\n".join(out + ["| " + " | ".join(row) + " |" for row in lines])
-    widths = [max(len(h), *(len(row[i]) for row in lines)) if lines else len(h)
-              for i, h in enumerate(head)]
-    out = ["  ".join(h.ljust(w) for h, w in zip(head, widths))]
-    return "\n".join(out + ["  ".join(c.ljust(w) for c, w in zip(row, widths))
-                            for row in lines])
+    return render(head, lines, markdown)
 
 
 def main(argv=None) -> int:
@@ -341,13 +338,16 @@ def main(argv=None) -> int:
     bad = sorted(set(methods) - set(METHODS))
     if bad:
         ap.error(f"--methods: unknown {bad}; known: {', '.join(METHODS)}")
-    if not args.explore_fidelity and (args.explore_jitter != 0.5 or args.explore_shift != 0.0):
+    if not args.explore_fidelity and (args.explore_jitter != ap.get_default("explore_jitter")
+                                      or args.explore_shift != ap.get_default("explore_shift")):
         ap.error("--explore-jitter and --explore-shift apply only with --explore-fidelity")
     path = Path(args.out)
     try:
         problem = problem_of(args)
-    except ValueError as e:
-        ap.error(f"--explore-{e}")
+    except ValueError as e:         # its message starts with the field's name
+        field = str(e).split(":", 1)[0]
+        flag = {"jitter": "explore-jitter", "shift": "explore-shift"}.get(field, field)
+        ap.error(f"--{flag}{str(e)[len(field):]}")
     truth = {"f_star": problem.optimum(CASE_MASS.p_threshold),
              "margins": {str(c): problem.optimum(c) - problem.optimum(CASE_MASS.p_threshold)
                          for c in MARGIN_LEVELS}}
