@@ -30,27 +30,17 @@ from types import SimpleNamespace
 from optimizer.cases import CASES
 from tethernet_ros.montecarlo.backends import GROUP_SIZE, group_size_for
 from tethernet_ros.montecarlo.evaluate import _batch_for
+from tethernet_ros.montecarlo.results_file import ResultsFile
 
 
 def records(run: Path) -> tuple[list[str], dict, dict]:
     """The design keys in the order of the run, and per key: index -> CPU-s, success."""
     cpu: dict[str, dict[int, float]] = {}
     ok: dict[str, dict[int, bool]] = {}
-    order: list[str] = []
-    with open(run / "samples.jsonl") as fh:
-        for line in fh:
-            try:
-                r = json.loads(line)
-            except ValueError:                 # a line cut short by a kill
-                continue
-            if "key" not in r or "index" not in r:
-                continue
-            if r["key"] not in cpu:
-                order.append(r["key"])
-                cpu[r["key"]], ok[r["key"]] = {}, {}
-            cpu[r["key"]][r["index"]] = float(r["cpu_time"])
-            ok[r["key"]][r["index"]] = bool(r["success"])
-    return order, cpu, ok
+    for _, r in ResultsFile(run / "samples.jsonl").records():
+        cpu.setdefault(r.key, {})[r.index] = float(r.cpu_time)
+        ok.setdefault(r.key, {})[r.index] = bool(r.success)
+    return list(cpu), cpu, ok
 
 
 def batch_wall(costs: list[float], workers: int) -> float:
