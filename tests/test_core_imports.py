@@ -1,28 +1,32 @@
 """The house of ``core/`` (docs/model.md, "The kernel's layout"): ``kernel/`` sits at the
 bottom and imports nothing of ``core`` above it, and ``core``'s modules import each other
-without a circle.  Imports are read from the source (``ast``), those inside functions too."""
+without a circle; nor do the modules of the whole package.  Imports are read from the
+source (``ast``), those inside functions too."""
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
+import tethernet_ros
 import tethernet_ros.core
 
 CORE = Path(tethernet_ros.core.__file__).parent
 PACKAGE = "tethernet_ros.core"
+ROOT = Path(tethernet_ros.__file__).parent
 KERNEL = PACKAGE + ".kernel"
 
 
-def _module_name(path: Path) -> str:
-    parts = list(path.relative_to(CORE).with_suffix("").parts)
+def _module_name(path: Path, root: Path, package: str) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts = parts[:-1]
-    return ".".join([PACKAGE] + parts)
+    return ".".join([package] + parts)
 
 
-def import_graph() -> dict[str, set[str]]:
-    """Each module of core -> the modules of core it imports (anywhere in its source)."""
-    files = {_module_name(p): p for p in sorted(CORE.rglob("*.py"))}
+def import_graph(root: Path = CORE, package: str = PACKAGE) -> dict[str, set[str]]:
+    """Each module of ``package`` (its source under ``root``) -> the modules of it that it
+    imports (anywhere in its source)."""
+    files = {_module_name(p, root, package): p for p in sorted(root.rglob("*.py"))}
     graph: dict[str, set[str]] = {m: set() for m in files}
     for mod, path in files.items():
         package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
@@ -102,4 +106,11 @@ def test_kernel_imports_nothing_of_core_above_it():
 
 def test_core_has_no_import_cycle():
     cycles = [c for c in strongly_connected(import_graph()) if len(c) > 1]
+    assert cycles == []
+
+
+def test_the_package_has_no_import_cycle():
+    graph = import_graph(ROOT, "tethernet_ros")
+    assert "tethernet_ros.montecarlo.records" in graph["tethernet_ros.montecarlo.backends"]
+    cycles = [c for c in strongly_connected(graph) if len(c) > 1]
     assert cycles == []

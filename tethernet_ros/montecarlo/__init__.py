@@ -27,13 +27,13 @@ evaluate.py        evaluate, evaluate_many; sequential sampling with a stopping 
 Everything public is importable from ``tethernet_ros.montecarlo`` itself.
 """
 from .backends import (GROUP_SIZE, EpisodeBackend, InProcessBackend, Outcome, default_workers,
-                       error_text, group_size_for)
+                       group_size_for)
 from .dask_backend import DaskBackend
 from .evaluate import ProgressFn, RunSpec, StopRule, evaluate, evaluate_many
 from .keys import model_version, run_key
 from .process_pool import ProcessPoolBackend
-from .records import (RECORD_VERSION, TRACE_FIELDS, EpisodeTask, SampleResult, failure_category,
-                      sample_result, worker_error_result)
+from .records import (RECORD_VERSION, TRACE_FIELDS, EpisodeTask, SampleResult, error_text,
+                      failure_category, sample_result, worker_error_result)
 from .results_file import ResultsFile
 from .running import make_backend, run_tasks
 from .seeds import SEED_STRIDE, sample_seed

@@ -14,7 +14,7 @@ from collections import deque
 from dataclasses import dataclass
 from collections.abc import Iterable, Iterator
 
-from .records import EpisodeTask, SampleResult
+from .records import EpisodeTask, SampleResult, error_text
 from .worker import iter_group, same_batch
 
 #: tasks a worker process takes at once, as one group on the batched kernel (its lanes
@@ -40,12 +40,6 @@ class Outcome:
     result: SampleResult | None = None
     error: str | None = None
     crashed: bool = False
-
-
-def error_text(exc: BaseException) -> str:
-    """One line (at most 300 characters) naming an exception raised by a task."""
-    text = f"{type(exc).__name__}: {exc}".strip()
-    return text.splitlines()[0][:300] if text else type(exc).__name__
 
 
 class EpisodeBackend(abc.ABC):

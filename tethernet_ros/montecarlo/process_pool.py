@@ -1,8 +1,8 @@
 """Local worker processes: :class:`ProcessPoolBackend` (concurrent.futures)."""
 from __future__ import annotations
 
-from .backends import (GROUP_SIZE, GroupedBackend, Outcome, default_workers, error_text,
-                       group_outcomes)
+from .backends import GROUP_SIZE, GroupedBackend, Outcome, default_workers, group_outcomes
+from .records import error_text
 from .worker import run_group, warm_worker
 
 

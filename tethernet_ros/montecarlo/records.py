@@ -138,3 +138,9 @@ def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:
         locked_pairs=0, closing_time=math.nan, completion_time=math.nan,
         mass=task.design.mass(task.config.density), failure_reason=f"worker error: {error}",
         category="worker error", attempts=task.attempt + 1)
+
+
+def error_text(exc: BaseException) -> str:
+    """One line (at most 300 characters) naming an exception raised by a task."""
+    text = f"{type(exc).__name__}: {exc}".strip()
+    return text.splitlines()[0][:300] if text else type(exc).__name__

@@ -7,7 +7,7 @@ import os
 import time
 
 from ..core.config import SimConfig
-from .records import TRACE_FIELDS, EpisodeTask, SampleResult, sample_result
+from .records import TRACE_FIELDS, EpisodeTask, SampleResult, error_text, sample_result
 
 #: Environment variable of the test fault hook (see :func:`fault_hook`).
 FAULT_ENV = "TETHERNET_MC_FAULT"
@@ -67,7 +67,6 @@ def run_group(tasks, lanes: int | None = None) -> list:
 
 def _run_batch(first: EpisodeTask, tasks, lanes):
     from ..core.batch import BatchRunner
-    from .backends import error_text
 
     errors = []
 
