@@ -45,7 +45,9 @@ def log_ei(improvement, sd, grad: bool = False):
     Mills ratio ``R = Phi/phi = sqrt(pi/2) erfcx(-z/sqrt2)`` (relative error ~1e-16 z^2),
     and the asymptotic ``phi(z)/z^2 (1 - 3/z^2 + 15/z^4)`` below z = -1e3. With ``grad``
     also returns ``(d/d improvement, d/d sd)`` of the log (``Phi(z)/EI`` and
-    ``phi(z)/EI``).
+    ``phi(z)/EI``); below z = -1e3 from the asymptotic ratios themselves, since a
+    difference of logs there loses every digit once ``log phi(z)`` is huge (z ~ -1e12 when
+    sd sits at its floor).
     """
     sd = np.maximum(sd, 1e-12)
     z = np.asarray(improvement / sd, dtype=float)
@@ -64,9 +66,17 @@ def log_ei(improvement, sd, grad: bool = False):
     val = log_tau + np.log(sd)
     if not grad:
         return val
-    d_imp = np.exp(log_ndtr(z) - log_tau) / sd
-    d_sd = np.exp(log_phi - log_tau) / sd
-    return val, d_imp, d_sd
+    d_imp = np.empty_like(z)
+    d_sd = np.empty_like(z)
+    near = ~far
+    d_imp[near] = np.exp(log_ndtr(z[near]) - log_tau[near])
+    d_sd[near] = np.exp(log_phi[near] - log_tau[near])
+    # x = -z: Phi/phi = (1 - 1/x^2 + 3/x^4)/x and tau/phi = (1 - 3/x^2 + 15/x^4)/x^2
+    x = -zf
+    rest = 1.0 - 3.0 / x**2 + 15.0 / x**4
+    d_imp[far] = x * (1.0 - 1.0 / x**2 + 3.0 / x**4) / rest
+    d_sd[far] = x**2 / rest
+    return val, d_imp / sd, d_sd / sd
 
 
 def log_probability_feasible(models: Mapping, thresholds: Mapping[str, float], U,

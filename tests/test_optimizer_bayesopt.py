@@ -232,6 +232,27 @@ def test_log_ei_is_accurate_and_gradients_match_finite_differences():
             assert np.allclose(g[0], fd, rtol=1e-4, atol=1e-4 * max(1.0, abs(val[0])))
 
 
+def test_log_ei_gradients_hold_far_into_the_tail_without_overflow():
+    """The gradient is each branch's ratio, not a difference of huge logs: with sd at its
+    floor (z ~ -1e12) the old form overflowed in exp (seen in the replication benchmark)."""
+    import warnings
+
+    for z in (-2.0, -40.0, -999.0, -1001.0, -5e4, 3.0):
+        imp, sd = np.array([z]), np.array([1.0])
+        _, d_imp, d_sd = _log_ei(imp, sd, grad=True)
+        h = 1e-6 * max(1.0, abs(z))
+        fd_imp = (_log_ei(imp + h, sd)[0] - _log_ei(imp - h, sd)[0]) / (2 * h)
+        fd_sd = (_log_ei(imp, sd + 1e-6)[0] - _log_ei(imp, sd - 1e-6)[0]) / 2e-6
+        assert d_imp[0] == pytest.approx(fd_imp, rel=1e-5)
+        assert d_sd[0] == pytest.approx(fd_sd, rel=1e-5)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        val, d_imp, d_sd = _log_ei(np.array([-1.0]), np.array([1e-13]), grad=True)
+    assert np.isfinite([val[0], d_imp[0], d_sd[0]]).all()
+    assert d_imp[0] == pytest.approx(1e12 / 1e-12, rel=1e-6)  # -z / sd
+    assert d_sd[0] == pytest.approx(1e24 / 1e-12, rel=1e-6)   # z^2 / sd
+
+
 def test_binomial_observation():
     v, var = binomial_observation(98, 100)
     assert v == 0.98 and var == pytest.approx((99 / 102) * (3 / 102) / 100)
