@@ -233,8 +233,9 @@ def test_log_ei_is_accurate_and_gradients_match_finite_differences():
 
 
 def test_log_ei_gradients_hold_far_into_the_tail_without_overflow():
-    """The gradient is each branch's ratio, not a difference of huge logs: with sd at its
-    floor (z ~ -1e12) the old form overflowed in exp (seen in the replication benchmark)."""
+    """Below z = -1e3 the gradient is the asymptotic ratio, not a difference of huge logs:
+    with sd at its floor (z ~ -1e12) the old form overflowed in exp (seen in the
+    replication benchmark)."""
     import warnings
 
     for z in (-2.0, -40.0, -999.0, -1001.0, -5e4, 3.0):
