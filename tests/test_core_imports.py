@@ -29,13 +29,13 @@ def import_graph(root: Path = CORE, package: str = PACKAGE) -> dict[str, set[str
     files = {_module_name(p, root, package): p for p in sorted(root.rglob("*.py"))}
     graph: dict[str, set[str]] = {m: set() for m in files}
     for mod, path in files.items():
-        package = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
+        here = mod if path.name == "__init__.py" else mod.rpartition(".")[0]
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
             elif isinstance(node, ast.ImportFrom):
                 if node.level:
-                    up = package.split(".")[:len(package.split(".")) - node.level + 1]
+                    up = here.split(".")[:len(here.split(".")) - node.level + 1]
                     base = ".".join(up + ([node.module] if node.module else []))
                 else:
                     base = node.module or ""
