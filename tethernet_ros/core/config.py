@@ -281,6 +281,7 @@ class SimConfig:
         d["closing_indices"] = list(self.closing_indices)
         d["tumble"] = self.tumble.to_dict()
         d["target"] = self.target.to_dict()
+        d["launch"] = self.launch.to_dict()
         return d
 
     @classmethod

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections import namedtuple
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -41,6 +41,11 @@ _LIMITS = {
 }
 
 
+#: the largest aim offset along x or y (m): twice the Zenit-2's half-length (5.2 m), beyond
+#: which a net aimed there meets nothing of a stage its size
+MAX_AIM_OFFSET = 10.0
+
+
 class LaunchError(ValueError):
     """A launch setting is outside its allowed range (message names the field)."""
 
@@ -56,16 +61,39 @@ class LaunchConfig:
     attitude has been found favourable at every measurement for this long (default 1 s:
     with noisy sensing the first measurement below the limit comes early, a noise dip,
     docs/model.md §16).  The policy decides at every measurement (the sensing rate,
-    ``core.sensing``), as the closing policy does."""
+    ``core.sensing``), as the closing policy does.  aim_offset (m): (x, y), the point
+    the chaser aims its net at, beside the target's centre across the line of sight
+    (default (0, 0): at the centre; each in [-MAX_AIM_OFFSET, MAX_AIM_OFFSET]); whatever
+    the policy, the net flies along the line of sight and the target's centre sits at
+    -aim_offset from it (docs/model.md §16)."""
 
     kind: str = "immediate"
     max_wait: float = 360.0
     max_tilt_deg: float = 30.0
     confirm_time: float = 1.0
+    aim_offset: tuple = (0.0, 0.0)
 
     def __post_init__(self):
         check_choice("launch", "kind", self.kind, LAUNCH_POLICIES, LaunchError)
         check_numbers("launch", self, _LIMITS, LaunchError)
+        v = self.aim_offset
+        try:
+            t = tuple(float(c) for c in v)
+        except (TypeError, ValueError):
+            t = ()
+        if len(t) != 2 or not all(math.isfinite(c) and abs(c) <= MAX_AIM_OFFSET for c in t):
+            raise LaunchError(f"launch field 'aim_offset': got {v!r}; must be 2 numbers "
+                              f"(x, y) in [-{MAX_AIM_OFFSET:g}, {MAX_AIM_OFFSET:g}] m")
+        object.__setattr__(self, "aim_offset", t)
+
+    def to_dict(self) -> dict:
+        """The settings as plain values; an aim at the centre is left out, so that the
+        configurations before the aim offset keep their run keys."""
+        d = asdict(self)
+        d["aim_offset"] = list(self.aim_offset)
+        if not any(self.aim_offset):
+            del d["aim_offset"]
+        return d
 
     @property
     def index(self) -> int:

@@ -277,7 +277,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                    config: SimConfig | None = None) -> Scenario:
     """Initial state of an episode (docs/model.md §1-5): the stowed net at the launch point,
     corner masses leaving with ``actions.corner_velocities``, the target at rest at
-    (0, 0, world.distance) rotated by world.rotation, closing armed at
+    (0, 0, world.distance) less the chaser's aim offset (``LaunchConfig.aim_offset``)
+    rotated by world.rotation, closing armed at
     ``actions.closing_displacement``.  The model's parts come from ``lumped``."""
     cfg = config or SimConfig()
     cv = _check_inputs(actions, world)
@@ -319,7 +320,8 @@ def build_scenario(design: Design, actions: Actions, world: World,
                               links=other.tether_links, centre=lay.centre, winch=lay.chaser,
                               order=TETHER_ORDERS.index(cfg.tether_order)),
         target_body=kn.TargetBody(
-            pos=np.array([0.0, 0.0, world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
+            pos=np.array([0.0 - cfg.launch.aim_offset[0], 0.0 - cfg.launch.aim_offset[1],
+                          world.distance]), quat=quat, vel=np.zeros(3), omega=omega,
             ang_mom=ang_mom, inertia=tgt_inertia, inv_mass=1.0 / tgt_mass, com_offset=tgt_com,
             bound=target.bounding_radius + detmath.norm3(tgt_com), geometry=target.geometry()),
         params=kernel_params(design, cfg, th, omega_1),
