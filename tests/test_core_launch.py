@@ -257,9 +257,8 @@ def test_aims_mirrored_across_the_stage_give_mirrored_captures():
     0.8 m to either side of the stage's axis give the same capture: the same locked pairs,
     the same closing and completion times, the settled CQI within 1 % (the contacts with the
     stage, in the order the kernel finds them, break the mirror by rounding, which the
-    wrapping grows).  On the explicit method,
-    which keeps the nominal deployment's mirror symmetry to the bit; the implicit
-    method's sweeps, in node order, do not (docs/studies/step.md)."""
+    wrapping grows).  On the explicit method, which keeps the nominal deployment's mirror
+    symmetry to the bit; the implicit method does not (docs/studies/step.md)."""
     cfg = SimConfig.preset("spec-text", settle_time=2.0)
     res = [run_episode(DESIGN, None, cfg.replace(launch=LaunchConfig(aim_offset=(0.0, y))),
                        record_trace=False) for y in (0.8, -0.8)]
