@@ -162,6 +162,51 @@ def test_failed_validation_demotes_its_near_copies():
     assert len(opt.history) == 14                       # evidence is not added to the history
 
 
+def _next_candidate_script():
+    import importlib.util
+
+    path = Path(__file__).parents[1] / "scripts" / "next_candidate.py"
+    spec = importlib.util.spec_from_file_location("next_candidate", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_next_candidate_replays_the_runs_choice_from_its_checkpoint(tmp_path, capsys):
+    """scripts/next_candidate.py (docs/cases/README.md, the tumbling Case 1 with the
+    predictive launch) replays optimizer.finish.choose_design on a checkpoint with recorded
+    counts: with nothing recorded the next design is the ranking's first (a near-copy);
+    with that one's failed validation, the feasible region's, as rank_candidates gives it
+    with the evidence; after a race, never a dropped design; records in another order than
+    the replay's are an error that names both."""
+    from optimizer.checkpoint import save_checkpoint
+
+    opt = ConstrainedBayesOpt([(0.0, 1.0)], {"p_success": 0.98}, n_initial=1, seed=0,
+                              n_restarts_gp=0)
+    for x in np.linspace(0.0, 0.2, 5):                  # evaluations 1-5, infeasible
+        opt.tell([x], 1.0 + x, {"p_success": 0.9}, {"p_success": binomial_observation(90, 100)[1]})
+    for x in (0.400, 0.401):                            # evaluations 6 and 7, near-copies
+        opt.tell([x], 1.0 + x, {"p_success": 0.99}, {"p_success": binomial_observation(99, 100)[1]})
+    for x in np.linspace(0.7, 1.0, 7):                  # evaluations 8-14, feasible
+        opt.tell([x], 2.0 + x, {"p_success": 1.0}, {"p_success": binomial_observation(100, 100)[1]})
+    path = tmp_path / "checkpoint.json"
+    save_checkpoint(path, {"optimizer": opt.state_dict()})
+    script = _next_candidate_script()
+
+    def next_evaluation(*args):
+        assert script.main([str(path), *args]) == 0
+        return json.loads(capsys.readouterr().out.splitlines()[-1])["evaluation"]
+
+    assert next_evaluation() == 6
+    assert next_evaluation("--failed", "6:950:1000") == 8
+    after_race = next_evaluation("--race", "6:90:100:dropped,7:99:100:undecided")
+    assert after_race != 6 and after_race in (7, 8)
+    with pytest.raises(SystemExit, match=r"validates evaluations \[\] before 6; the records name \[7\]"):
+        script.main([str(path), "--failed", "7:950:1000"])
+    with pytest.raises(SystemExit, match=r"races evaluations \[6\]; the records name \[8\]"):
+        script.main([str(path), "--race", "8:90:100:dropped"])
+
+
 # ----------------------------------------------------------------- runs, resume
 def _history(run_dir):
     return (Path(run_dir) / "history.csv").read_text().splitlines()
