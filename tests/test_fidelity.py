@@ -13,6 +13,7 @@ from optimizer.run import run_optimization
 from optimizer.settings import FIDELITY_PHASES, RunError, RunSettings, SettingError
 from optimizer.testproblems import LatentDifficulty
 from optimizer_fakes import SyntheticBackend
+from script_modules import load_script
 from tethernet_ros import cli, montecarlo
 from tethernet_ros.commands.common import config_from_args, fidelity_config
 from tethernet_ros.core.config import ConfigError, SimConfig
@@ -270,17 +271,6 @@ def test_a_run_at_the_reference_writes_what_it_always_did_and_resumes_old_run_di
                         **{**kw, "fidelity": {"iterations": EXPLORATION}})
 
 
-def _early_verdict_script():
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).parents[1] / "scripts" / "early_verdict.py"
-    spec = importlib.util.spec_from_file_location("early_verdict", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_early_verdict_reads_the_rule_at_the_trace_sample_nearest_closing_plus_s():
     """scripts/early_verdict.py (docs/studies/fidelity.md, "An earlier verdict"): the
     success rule on the trace sample nearest closing + s; the pairs that lock late and a
@@ -288,7 +278,7 @@ def test_early_verdict_reads_the_rule_at_the_trace_sample_nearest_closing_plus_s
     settle time's verdict."""
     from tethernet_ros.montecarlo.records import SampleResult
 
-    ev = _early_verdict_script()
+    ev = load_script("early_verdict")
     times = [round(0.1 * k, 1) for k in range(260)]           # 0-25.9 s at 10 Hz
 
     def sample(seed, cqi, pairs, success, closing=5.03, category=""):
@@ -371,16 +361,11 @@ def test_sampler_wall_replays_the_samplers_batches_on_the_records():
     """scripts/sampler_wall.py (docs/cases/README.md, Case 2 at exploration): a batch's
     groups go to the first free worker and last their CPU sums; a design is replayed
     batch by batch to the case rule's decision, the samples past it counted."""
-    import importlib.util
-    from pathlib import Path
     from types import SimpleNamespace
 
     from optimizer.cases import CASE_MASS
 
-    path = Path(__file__).parents[1] / "scripts" / "sampler_wall.py"
-    spec = importlib.util.spec_from_file_location("sampler_wall", path)
-    sw = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(sw)
+    sw = load_script("sampler_wall")
     # 8 tasks on 2 workers: two groups of 4, the longer one sets the wall
     assert sw.batch_wall([1.0] * 4 + [2.0] * 4, 2) == 8.0
     assert sw.batch_wall([3.0], 2) == 3.0

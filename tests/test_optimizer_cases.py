@@ -33,6 +33,7 @@ from tethernet_ros.core.design import (DESIGN_BOUNDS, REFERENCE_DESIGNS, VARIABL
 from tethernet_ros.design_problem import SimulatorProblem, optimize_design
 from tethernet_ros.montecarlo import EpisodeBackend, InProcessBackend, sample_seed
 from results_lines import sample_lines
+from script_modules import load_script
 
 ROOT = Path(__file__).resolve().parent.parent
 FAST = {"n_restarts_gp": 0, "n_candidates": 2000}
@@ -162,16 +163,6 @@ def test_failed_validation_demotes_its_near_copies():
     assert len(opt.history) == 14                       # evidence is not added to the history
 
 
-def _next_candidate_script():
-    import importlib.util
-
-    path = Path(__file__).parents[1] / "scripts" / "next_candidate.py"
-    spec = importlib.util.spec_from_file_location("next_candidate", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_next_candidate_replays_the_runs_choice_from_its_checkpoint(tmp_path, capsys):
     """scripts/next_candidate.py (docs/cases/README.md, the tumbling Case 1 with the
     predictive launch) replays optimizer.finish.choose_design on a checkpoint with recorded
@@ -191,7 +182,7 @@ def test_next_candidate_replays_the_runs_choice_from_its_checkpoint(tmp_path, ca
         opt.tell([x], 2.0 + x, {"p_success": 1.0}, {"p_success": binomial_observation(100, 100)[1]})
     path = tmp_path / "checkpoint.json"
     save_checkpoint(path, {"optimizer": opt.state_dict()})
-    script = _next_candidate_script()
+    script = load_script("next_candidate")
 
     def next_evaluation(*args):
         assert script.main([str(path), *args]) == 0

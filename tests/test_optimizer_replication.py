@@ -1,9 +1,7 @@
 """The replication benchmark's problem with a known truth (optimizer.testproblems.
 LatentDifficulty) and, in a short form, the benchmark itself (benchmarks/
 bench_replication.py; the full one: docs/cases/replication.md)."""
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +9,7 @@ from scipy.stats import norm
 
 from optimizer.sequential import SequentialRule
 from optimizer.testproblems import LatentDifficulty
-
-ROOT = Path(__file__).resolve().parent.parent
+from script_modules import load_script
 
 
 def test_latent_difficulty_fails_nearby_designs_on_the_same_samples():
@@ -86,11 +83,7 @@ def test_latent_difficulty_exploration_flips_verdicts_at_the_stated_rates():
 
 
 def _bench():
-    spec = importlib.util.spec_from_file_location("bench_replication",
-                                                  ROOT / "benchmarks" / "bench_replication.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_script("bench_replication", "benchmarks")
 
 
 @pytest.mark.slow
