@@ -67,7 +67,9 @@ class RecordedValidator:
             raise NextDesign(e)
         self.order.append(e)
         k, n = self.failed[e]
-        return SimpleNamespace(successes=k, n_samples=n, p_success=k / n, ci_low=-1.0)
+        # a failure by either rule (optimizer.finish.meets_requirement); the constraint
+        # GP's evidence reads only the counts
+        return SimpleNamespace(successes=k, n_samples=n, p_success=-1.0, ci_low=-1.0)
 
     def meets(self, result) -> bool:
         return False
@@ -109,7 +111,8 @@ def main(argv=None) -> int:
         racing_candidates=args.racing_candidates if args.racing_candidates is not None
         else len(race),
         validation_candidates=len(history), min_probability=args.min_probability,
-        selection_level="requirement", validation_samples=1000, validation_rule="wilson")
+        selection_level="requirement", validation_samples=RecordedValidator.samples,
+        validation_rule=RecordedValidator.rule)
     validator = RecordedValidator(number, failed)
     try:
         choose_design(get_case(args.case), opt, False, settings, validator,
