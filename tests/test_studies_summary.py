@@ -175,3 +175,38 @@ def test_a_design_file_with_its_own_tumble_joins_a_study(tmp_path, capsys):
     assert code == 0
     assert "its tumble" in out.err and "is not used" in out.err
     assert f"| {f} | 128 |" in out.out                     # 32 cells x 4 samples
+
+
+def _cell(label, verdicts, seed=0, wait=0.0):
+    n, k = len(verdicts), verdicts.count("1")
+    lo, hi = wilson_interval(k, n)
+    return {**REC, "label": label, "n": n, "successes": k, "p": k / n, "lo": lo, "hi": hi,
+            "verdicts": verdicts, "seed": seed, "mean_wait": wait}
+
+
+def test_two_summaries_pair_their_cells_sample_by_sample(tmp_path, capsys):
+    """scripts/pair_summaries.py: B's cells against A's of the same label and design (and
+    of the reference launch), flip by flip; a cell of other samples is not paired."""
+    from script_modules import load_script
+
+    script = load_script("pair_summaries")
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"stats": [_cell("flat 2 threshold immediate", "1000"),
+                                       _cell("flat 2 threshold predictive", "1100", wait=9.0)],
+                             "kept": [_cell("flat 8 threshold predictive", "1111", seed=7)]}))
+    b.write_text(json.dumps({"stats": [_cell("flat 2 threshold predictive", "0111", wait=12.0),
+                                       _cell("flat 8 threshold predictive", "1111")]}))
+    assert script.main([str(a), str(b), "--label-a", "30", "--label-b", "15",
+                        "--reference", "immediate"]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0].startswith("| design | cell | P*_s 30 % | P*_s 15 % [95 %] |")
+    flat2 = rows[2].split(" | ")
+    # A's predictive 1100 against B's 0111: one success of A alone, two of B alone;
+    # A's immediate 1000 against 0111: one of the immediate alone, three of B alone
+    assert flat2[1:4] == ["flat 2 threshold predictive", "50.0", "75.0 [30.1, 95.4]"]
+    assert flat2[4] == "12.0" and flat2[6] == "1 / 2" and flat2[8] == "25.0"
+    assert flat2[9] == "1 / 3" and flat2[10] == "0.62 |"
+    # A holds the 8 deg/s cell for another base seed only: no pair, no reference
+    assert rows[3].split(" | ")[2] == "-" and rows[3].endswith("| - | - | - | - | - |")
+    b.write_text(json.dumps({"stats": [{k: v for k, v in REC.items() if k != "verdicts"}]}))
+    assert script.main([str(a), str(b)]) == 2
