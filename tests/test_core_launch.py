@@ -239,7 +239,7 @@ def test_the_aim_offset_names_its_field_and_moves_the_target_off_the_line_of_sig
     """``aim_offset`` (m): two numbers within +-MAX_AIM_OFFSET; the target's centre sits at
     -aim_offset across the line of sight; an aim at the centre leaves the configuration's
     dictionary (and so the run keys) as before."""
-    for bad in ((1.0,), (0.0, float("nan")), (0.0, 10.5), "ab"):
+    for bad in ((1.0,), (0.0, float("nan")), (0.0, 10.5), "ab", "12"):
         with pytest.raises(LaunchError, match=r"launch field 'aim_offset'.*\[-10, 10\] m"):
             LaunchConfig(aim_offset=bad)
     assert "aim_offset" not in SimConfig().to_dict()["launch"]

@@ -20,3 +20,16 @@ def check_numbers(group: str, settings, limits: dict, error) -> None:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
                 or not lo <= v <= hi:
             raise error(f"{group} field '{name}': got {v!r}; must be {what}")
+
+
+def finite_numbers(value) -> tuple | None:
+    """``value`` (a sequence of numbers: a list, a tuple, an array) as a tuple of floats, or
+    None when it is not one, or holds a NaN or an infinity; the caller checks the length
+    and names the field."""
+    if isinstance(value, (str, bytes)):
+        return None
+    try:
+        t = tuple(float(c) for c in value)
+    except (TypeError, ValueError):
+        return None
+    return t if all(math.isfinite(c) for c in t) else None

@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from . import detmath
-from .checks import check_choice, check_numbers
+from .checks import check_choice, check_numbers, finite_numbers
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
 from .kernel.policy_table import KERNEL, NONE, spec
 from .kernel.sensing import N_CHANNELS
@@ -41,8 +41,8 @@ _LIMITS = {
 }
 
 
-#: the largest aim offset along x or y (m): twice the Zenit-2's half-length (5.2 m), beyond
-#: which a net aimed there meets nothing of a stage its size
+#: the largest aim offset along x or y (m): about the Zenit-2's length (10.4 m), twice its
+#: half-length, beyond which a net aimed there meets nothing of a stage its size
 MAX_AIM_OFFSET = 10.0
 
 
@@ -77,11 +77,8 @@ class LaunchConfig:
         check_choice("launch", "kind", self.kind, LAUNCH_POLICIES, LaunchError)
         check_numbers("launch", self, _LIMITS, LaunchError)
         v = self.aim_offset
-        try:
-            t = tuple(float(c) for c in v)
-        except (TypeError, ValueError):
-            t = ()
-        if len(t) != 2 or not all(math.isfinite(c) and abs(c) <= MAX_AIM_OFFSET for c in t):
+        t = finite_numbers(v)
+        if t is None or len(t) != 2 or not all(abs(c) <= MAX_AIM_OFFSET for c in t):
             raise LaunchError(f"launch field 'aim_offset': got {v!r}; must be 2 numbers "
                               f"(x, y) in [-{MAX_AIM_OFFSET:g}, {MAX_AIM_OFFSET:g}] m")
         object.__setattr__(self, "aim_offset", t)

@@ -16,6 +16,8 @@ import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from .checks import finite_numbers
+
 #: the default target, the only one of the ``revolution`` kind
 DEFAULT_NAME = "zenit-2"
 #: mass of the default (kg): the Zenit-2 second stage's dry mass (docs/model.md §1)
@@ -113,11 +115,8 @@ class TargetConfig:
                               f"{sorted(UNITS)}")
         for name, sizes in (("com", (0, 3)), ("inertia", (0, 6, 9)), ("attitude_deg", (0, 3))):
             v = getattr(self, name)
-            try:
-                t = tuple(float(c) for c in v)
-            except (TypeError, ValueError):
-                t = None
-            if t is None or len(t) not in sizes or not all(math.isfinite(c) for c in t):
+            t = finite_numbers(v)
+            if t is None or len(t) not in sizes:
                 raise TargetError(f"target field '{name}': got {v!r}; must be "
                                   f"{' or '.join(str(s) for s in sizes if s)} finite numbers "
                                   "(or empty for uniform density)")

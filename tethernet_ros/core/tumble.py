@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath
+from .checks import finite_numbers
 
 #: named axes in the target's body frame (x: the long axis)
 AXES = {"flat": (0.0, 1.0, 0.0), "los": (0.0, 0.0, 1.0), "long": (1.0, 0.0, 0.0)}
@@ -62,11 +63,8 @@ class TumbleConfig:
                 raise TumbleError(f"tumble field 'axis': got {a!r}; must be one of "
                                   f"{sorted(AXES) + [TRANSVERSE]} or a vector [x, y, z]")
         else:
-            try:
-                v = tuple(float(c) for c in a)
-            except (TypeError, ValueError):
-                v = ()
-            if len(v) != 3 or not all(math.isfinite(c) for c in v):
+            v = finite_numbers(a)
+            if v is None or len(v) != 3:
                 raise TumbleError(f"tumble field 'axis': got {a!r}; must be a name or three "
                                   "finite numbers")
             if v[0] * v[0] + v[1] * v[1] + v[2] * v[2] == 0.0:
