@@ -15,14 +15,13 @@ import json
 import sys
 
 from tethernet_ros.studies.paired import paired_cells
-from tethernet_ros.studies.summary import CellRecord
+from tethernet_ros.studies.summary import CellRecord, cell_entries
 
 
 def cell_records(path: str) -> dict[tuple[str, str], CellRecord]:
     """A summary's cells that keep their verdicts, by (label, design)."""
-    data = json.loads(open(path).read())
     out = {}
-    for rec in data.get("stats", []) + data.get("kept", []):
+    for rec in cell_entries(json.loads(open(path).read())):
         if "verdicts" not in rec:
             continue
         key = (str(rec["label"]), str(rec["design"]))
@@ -32,6 +31,12 @@ def cell_records(path: str) -> dict[tuple[str, str], CellRecord]:
 
 def _pct(x: float) -> str:
     return f"{100 * x:.1f}"
+
+
+def _same_samples(a, b):
+    """Cell record ``a`` when it has ``b``'s base seed (so the pair is over the same
+    samples), else None."""
+    return a if a is not None and a.base_seed == b.base_seed else None
 
 
 def _pair_text(pair) -> str:
@@ -49,18 +54,14 @@ def table(a: dict, b: dict, label_a: str, label_b: str, reference: str | None) -
         cols += 3
     rows = [head, "|" + "---|" * cols]
     for (label, design), rb in b.items():
-        ra = a.get((label, design))
-        if ra is not None and ra.base_seed != rb.base_seed:
-            ra = None                                   # other samples: nothing to pair
+        ra = _same_samples(a.get((label, design)), rb)
         s = rb.stats
         row = (f"| {design} | {label} | {_pct(ra.stats.p) if ra else '-'} | {_pct(s.p)} "
                f"[{_pct(s.lo)}, {_pct(s.hi)}] | {s.mean_wait:.1f} | {s.mean_t:.2f} | "
                f"{_pair_text(paired_cells(ra, rb))} |")
         if reference:
             ref_label = " ".join(label.split()[:-1] + [reference])
-            rr = a.get((ref_label, design))
-            if rr is not None and rr.base_seed != rb.base_seed:
-                rr = None
+            rr = _same_samples(a.get((ref_label, design)), rb)
             row += (f" {_pct(rr.stats.p) if rr else '-'} | {_pair_text(paired_cells(rr, rb))} |")
         rows.append(row)
     return rows

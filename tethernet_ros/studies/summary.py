@@ -148,7 +148,7 @@ def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str
     except (OSError, ValueError):
         return {}
     out = {}
-    for rec in _entries(data):
+    for rec in cell_entries(data):
         try:
             if int(rec["seed"]) != base_seed or int(rec["n"]) != n_samples:
                 continue
@@ -159,7 +159,7 @@ def reusable_cells(path: str | Path, base_seed: int, n_samples: int) -> dict[str
     return out
 
 
-def _entries(data) -> list:
+def cell_entries(data) -> list:
     """The cell entries of a summary's JSON: this run's ("stats") and earlier runs'
     ("kept"); none when the file holds something else."""
     if not isinstance(data, dict):
@@ -181,7 +181,7 @@ def earlier_records(path: str | Path, records) -> list[dict]:
         return []
     mine = {(r.key, r.base_seed, r.stats.n) for r in records}
     out, seen = [], set()
-    for e in _entries(data):
+    for e in cell_entries(data):
         try:
             ident = (str(e["key"]), int(e["seed"]), int(e["n"]))
         except (KeyError, TypeError, ValueError):
