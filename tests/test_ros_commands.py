@@ -19,8 +19,9 @@ from tethernet_ros.commands.common import (add_config_argument, add_design_argum
                                            config_from_args, controller_config,
                                            controller_label, read_design_file)
 from tethernet_ros.core.config import ConfigError, SimConfig
-from tethernet_ros.core.design import Design
+from tethernet_ros.core.design import Design, DesignError
 from tethernet_ros.core.episode import run_episode
+from tethernet_ros.core.launch import LaunchConfig
 from tethernet_ros.core.noise import NoiseModel
 from tethernet_ros.core.policies import PolicyConfig
 from tethernet_ros.core.sensing import SensingConfig
@@ -48,10 +49,11 @@ def test_flags_set_the_nested_settings_over_the_config_file_and_the_design_file(
     config.write_text("settle_time: 3.0\ntumble: {rate_deg_s: 1.0, axis: long, phase_deg: 5}\n"
                       "sensing: {rate_hz: 10.0, sigma_position: 0.1}\n")
     design = tmp_path / "d.yaml"
-    design.write_text(TIME_MIN + "tumble: {rate_deg_s: 2.0, axis: [0, 1, 1]}\n")
+    design.write_text(TIME_MIN + "tumble: {rate_deg_s: 2.0, axis: [0, 1, 1]}\n"
+                      "launch: {kind: predictive, max_tilt_deg: 15, max_wait: 100}\n")
     args = parse("--design", str(design), "--config", str(config), "--tumble-axis", "los",
                  "--sensing-rate", "50", "--latency", "0.04", "--policy", "adaptive",
-                 "--net-point", "corners")
+                 "--net-point", "corners", "--launch-max-wait", "50")
     cfg = config_from_args(args)
     assert cfg.settle_time == 3.0
     # the design file's rate over the config file's; the flag's axis over both; the phase
@@ -60,10 +62,13 @@ def test_flags_set_the_nested_settings_over_the_config_file_and_the_design_file(
     assert cfg.sensing == SensingConfig(rate_hz=50.0, latency=0.04, sigma_position=0.1,
                                         net_point="corners")
     assert cfg.policy.kind == "adaptive"
+    # the design file's launch settings, the flag's max_wait over the file's
+    assert cfg.launch == LaunchConfig(kind="predictive", max_tilt_deg=15.0, max_wait=50.0)
     assert read_design_file(str(design)) == (
         Design.from_dict(dict(m_c=2.0478, L_n=19.8437, r_n=0.00104, d_L=16.1416,
                               V_e=[4.0237, 2.6035, 8.8838], d_c=2.2589)),
-        {"rate_deg_s": 2.0, "axis": [0, 1, 1]})
+        {"tumble": {"rate_deg_s": 2.0, "axis": [0, 1, 1]},
+         "launch": {"kind": "predictive", "max_tilt_deg": 15, "max_wait": 100}})
     # a vector axis; nothing given: the defaults (a target at rest, ideal sensing, threshold)
     assert config_from_args(parse("--design", "time-min", "--tumble-axis", "1,0,2",
                                   "--tumble-rate", "3")).tumble.axis == (1.0, 0.0, 2.0)
@@ -119,6 +124,17 @@ def test_bad_design_file_tumble_names_the_file(tmp_path):
     design.write_text(TIME_MIN + "tumble: fast\n")
     out = cli("capture", "--design", str(design))
     assert out.returncode == 2 and "tumble" in out.stderr and "must be a mapping" in out.stderr
+
+
+def test_bad_design_file_launch_names_the_file_field_and_range(tmp_path):
+    design = tmp_path / "d.yaml"
+    design.write_text(TIME_MIN + "launch: {max_tilt_deg: 120}\n")
+    with pytest.raises(ConfigError, match=r"^--design .*d\.yaml \(launch:\): launch field "
+                                          r"'max_tilt_deg': got 120.*\[0\.1, 90\]"):
+        config_from_args(parse("--design", str(design)))
+    design.write_text(TIME_MIN + "launch: 15\n")
+    with pytest.raises(DesignError, match="launch.*must be a mapping of launch fields"):
+        config_from_args(parse("--design", str(design)))
 
 
 def test_capture_of_a_tumbling_target_from_the_command_line(tmp_path):

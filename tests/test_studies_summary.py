@@ -177,6 +177,40 @@ def test_a_design_file_with_its_own_tumble_joins_a_study(tmp_path, capsys):
     assert f"| {f} | 128 |" in out.out                     # 32 cells x 4 samples
 
 
+def test_a_design_files_launch_settings_hold_in_its_study_cells(tmp_path, capsys):
+    """A design file's launch: (a tilt limit it was chosen with) sets its own cells as
+    --launch-max-tilt would, so their run keys are the flag's; the cell sets the launch
+    policy and the command line wins over the file; a bad value names the file."""
+    from tethernet_ros.cli import build_parser
+    from tethernet_ros.commands.common import config_from_args, read_design_file
+    from tethernet_ros.commands.study import _design_launch, with_launch
+    from tethernet_ros.errors import UserError
+    from tethernet_ros.studies.cells import STUDIES
+
+    f = tmp_path / "d.yaml"
+    f.write_text("m_c: 1.0\nL_n: 20.0\nr_n: 0.001\nd_L: 30.0\nV_e: [2.5, 3.0, 7.5]\nd_c: 2.5\n"
+                 "launch: {kind: immediate, max_tilt_deg: 15}\n")
+    scenario = read_design_file(str(f))[1]
+
+    def cell_configs(*flags):
+        args = build_parser().parse_args(["study", "launch", "--designs", str(f), *flags])
+        launch = _design_launch(str(f), scenario, args)
+        return [with_launch(c.config, launch) for c in STUDIES["launch"](config_from_args(args))]
+
+    by_file, by_flag = cell_configs(), cell_configs("--launch-max-tilt", "15")
+    assert by_file == by_flag
+    assert {c.launch.kind for c in by_file} == {"immediate", "predictive"}   # the cells'
+    assert {c.launch.max_tilt_deg for c in cell_configs("--launch-max-tilt", "20")} == {20.0}
+    err = capsys.readouterr().err
+    assert "its launch {'kind': 'immediate'} is not used" in err
+    assert "its launch {'kind': 'immediate', 'max_tilt_deg': 15} is not used" in err
+    f.write_text(f.read_text().replace("15}", "150}"))
+    with pytest.raises(UserError, match=r"d\.yaml \(launch:\): launch field 'max_tilt_deg': "
+                                        r"got 150"):
+        _design_launch(str(f), read_design_file(str(f))[1],
+                       build_parser().parse_args(["study", "launch", "--designs", str(f)]))
+
+
 def _cell(label, verdicts, seed=0, wait=0.0):
     n, k = len(verdicts), verdicts.count("1")
     lo, hi = wilson_interval(k, n)

@@ -46,38 +46,54 @@ def add_design_argument(p: argparse.ArgumentParser) -> None:
     p.add_argument("--design", required=True, metavar="NAME|FILE.yaml",
                    help="reference design (baseline, suboptimal, mass-min, time-min) or a YAML "
                         "file with keys m_c, L_n, r_n, d_L, V_e, d_c (and optionally a tumble: "
-                        "mapping: rate_deg_s, axis, phase_deg, and a target: mapping: name or "
-                        "mesh, mass, units, com, inertia, attitude_deg)")
+                        "mapping: rate_deg_s, axis, phase_deg; a target: mapping: name or "
+                        "mesh, mass, units, com, inertia, attitude_deg; a launch: mapping: "
+                        "kind, max_wait, max_tilt_deg, confirm_time, aim_offset)")
 
 
-def read_design_file(name_or_path: str) -> tuple[Design, dict | None]:
-    """A design by name or YAML file (``core.design.load_design``) and the file's
-    ``tumble:`` mapping (TumbleConfig fields; at the top level or beside the design's keys
-    under ``design:``), None if it has none."""
+#: the scenario mappings a design file may carry beside its design keys (at the top level
+#: or under ``design:``): group -> the fields it holds.  ``launch:`` states the launch
+#: settings the design was chosen or checked with (e.g. Case 2's tilt limit,
+#: docs/studies/launch-tilt.md).
+DESIGN_FILE_SCENARIO = {
+    "tumble": "rate_deg_s (deg/s), axis and phase_deg (deg)",
+    "target": "target fields (name, mesh, mass, units, com, inertia, attitude_deg)",
+    "launch": "launch fields (kind, max_wait, max_tilt_deg, confirm_time, aim_offset)",
+}
+
+
+def read_design_file(name_or_path: str) -> tuple[Design, dict]:
+    """A design by name or YAML file (``core.design.load_design``) and the file's scenario
+    mappings (group of DESIGN_FILE_SCENARIO -> its fields; a relative target ``mesh`` is
+    made relative to the file's folder); {} for a reference design or a file with none."""
     path = Path(name_or_path)
     if name_or_path in REFERENCE_DESIGNS or not path.is_file():
-        return load_design(name_or_path), None
+        return load_design(name_or_path), {}
     import yaml
 
     try:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError:
-        return load_design(name_or_path), None           # (its error names the line)
+        return load_design(name_or_path), {}           # (its error names the line)
     if not isinstance(data, dict):
-        return load_design(name_or_path), None
+        return load_design(name_or_path), {}
     data = dict(data)
-    tumble = data.pop("tumble", None)
-    data.pop("target", None)                          # (design_file_target reads it)
+    scenario = {g: data.pop(g) for g in DESIGN_FILE_SCENARIO if g in data}
     inner = data.get("design")
     if isinstance(inner, dict):
         inner = dict(inner)
-        tumble = inner.pop("tumble", tumble)
-        inner.pop("target", None)
+        scenario.update({g: inner.pop(g) for g in DESIGN_FILE_SCENARIO if g in inner})
         data = inner
-    if tumble is not None and not isinstance(tumble, dict):
-        raise DesignError("tumble", f"in {str(path)!r}: got {tumble!r}; must be a mapping of "
-                          "rate_deg_s (deg/s), axis and phase_deg (deg)")
-    return Design.from_dict(data), tumble
+    scenario = {g: v for g, v in scenario.items() if v is not None}
+    for group, value in scenario.items():
+        if not isinstance(value, dict):
+            raise DesignError(group, f"in {str(path)!r}: got {value!r}; must be a mapping of "
+                              + DESIGN_FILE_SCENARIO[group])
+    target = scenario.get("target")
+    if target is not None and target.get("mesh") \
+            and not Path(str(target["mesh"])).expanduser().is_absolute():
+        scenario["target"] = {**target, "mesh": str(path.parent / str(target["mesh"]))}
+    return Design.from_dict(data), scenario
 
 
 def add_noise_arguments(p: argparse.ArgumentParser) -> None:
@@ -236,46 +252,20 @@ def target_fields(text: str) -> dict:
         raise UserError(f"--target: {exc}") from None
 
 
-def design_file_target(path: Path) -> dict | None:
-    """The ``target:`` mapping of a design file (TargetConfig fields, at the top level or
-    beside the design's keys under ``design:``; a relative ``mesh`` is relative to the
-    file's folder), None if it has none."""
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError:
-        return None
-    if not isinstance(data, dict):
-        return None
-    target = data.get("target")
-    if isinstance(data.get("design"), dict):
-        target = data["design"].get("target", target)
-    if target is None:
-        return None
-    if not isinstance(target, dict):
-        raise UserError(f"--design {str(path)!r}: target: got {target!r}; must be a mapping of "
-                        "target fields (name, mesh, mass, units, com, inertia, attitude_deg)")
-    target = dict(target)
-    mesh = target.get("mesh")
-    if mesh and not Path(str(mesh)).expanduser().is_absolute():
-        target["mesh"] = str(path.parent / str(mesh))
-    return target
-
-
-def _design_tumble(args) -> tuple[dict | None, str]:
-    """The ``tumble:`` mapping of the --design file, if it is a file with one."""
+def _design_scenario(args) -> tuple[dict, str]:
+    """The scenario mappings of the --design file (read_design_file) and its name; ({}, '')
+    for a reference design."""
     name = getattr(args, "design", None)
     if not name or name in REFERENCE_DESIGNS or not Path(name).is_file():
-        return None, ""
+        return {}, ""
     return read_design_file(name)[1], name
 
 
 def config_from_args(args, **overrides):
-    """SimConfig from --config (if given), the --design file's ``tumble:`` and ``target:``
-    over it, the scenario flags (--tumble-*, --policy, --net-point, --sensing-rate, --latency) over
-    that, and ``overrides`` applied on top.  A bad value is refused naming its flag (or
-    file) and its range."""
+    """SimConfig from --config (if given), the --design file's ``tumble:``, ``target:`` and
+    ``launch:`` over it, the scenario flags (--tumble-*, --policy, --launch-*, --net-point,
+    --sensing-rate, --latency, ...) over that, and ``overrides`` applied on top.  A bad
+    value is refused naming its flag (or file) and its range."""
     from ..core.config import ConfigError, SimConfig
 
     data = {}
@@ -291,15 +281,10 @@ def config_from_args(args, **overrides):
             raise UserError(f"--config: file {str(path)!r} is not valid YAML") from None
         if not isinstance(data, dict):
             raise UserError(f"--config: file {str(path)!r} must hold a mapping of SimConfig fields")
-    layers = []
-    tumble, design_file = _design_tumble(args)
-    if tumble is not None:
-        layers.append(({"tumble": tumble}, {"tumble." + k: f"--design {design_file} (tumble:)"
-                                            for k in tumble}))
-    target = design_file_target(Path(design_file)) if design_file else None
-    if target is not None:
-        layers.append(({"target": target}, {"target." + k: f"--design {design_file} (target:)"
-                                            for k in target}))
+    scenario, design_file = _design_scenario(args)
+    layers = [({group: fields_}, {f"{group}.{k}": f"--design {design_file} ({group}:)"
+                                  for k in fields_})
+              for group, fields_ in scenario.items()]
     layers.append(scenario_overrides(args))
     where: dict = {}
     for values, flags in layers:

@@ -93,14 +93,10 @@ def run(args) -> int:
     if args.study == "compare":
         return _compare(args, designs)
     check_backend_arguments(args)
-    design_of = {}
+    design_of, scenario_of = {}, {}
     for d in designs:
         if d in REFERENCE_DESIGNS or (d.endswith((".yaml", ".yml")) and Path(d).is_file()):
-            # a design file's own scenario (its tumble:) gives way to each cell's
-            design_of[d], tumble = read_design_file(d)
-            if tumble is not None:
-                print(f"{d}: its tumble {tumble} is not used; each cell of the study sets "
-                      "its own", file=sys.stderr)
+            design_of[d], scenario_of[d] = read_design_file(d)
         else:
             raise UserError(f"--designs: unknown design {d!r}; allowed {sorted(REFERENCE_DESIGNS)} "
                             "or a design YAML file")
@@ -108,13 +104,15 @@ def run(args) -> int:
         raise UserError(f"--samples {args.samples}: must be an integer >= 1")
     base = config_from_args(args)
     cells = STUDIES[args.study](base)
+    launch_of = {d: _design_launch(d, scenario_of[d], args) for d in designs}
     if args.cells:
         keep = {c.strip() for c in args.cells.split(",")}
         unknown = keep - {c.label for c in cells}
         if unknown:
             raise UserError(f"--cells: unknown {sorted(unknown)}; allowed {[c.label for c in cells]}")
         cells = [cells[0]] + [c for c in cells[1:] if c.label in keep]
-    specs = {(c.label, d): RunSpec(design_of[d], noise_model=c.noise, config=c.config,
+    specs = {(c.label, d): RunSpec(design_of[d], noise_model=c.noise,
+                                   config=with_launch(c.config, launch_of[d]),
                                    label=f"{c.label}|{d}") for c in cells for d in designs}
     results = Path(args.results or f"out/studies/{args.study}_seed{args.seed}.jsonl")
     results.parent.mkdir(parents=True, exist_ok=True)
@@ -154,12 +152,55 @@ def run(args) -> int:
                                     progress=_progress(args, spec.label))[0]
                 records[(label, d)] = CellRecord.from_samples(label, d, got.key, args.seed,
                                                               got.samples)
-                _write_report(args, base, cells, designs, records, design_of)
+                _write_report(args, base, cells, designs, records, design_of, launch_of)
     finally:
         if backend is not None:
             backend.close()
-    print(_write_report(args, base, cells, designs, records, design_of))
+    print(_write_report(args, base, cells, designs, records, design_of, launch_of))
     return 0
+
+
+def _design_launch(d: str, scenario: dict, args) -> dict:
+    """The launch settings a design file states for its own cells (its ``launch:`` less
+    ``kind``, and less what the command line sets): a design chosen or checked with a tilt
+    limit keeps it in every cell.  The file's tumble, target and launch kind give way to
+    each cell's and the command line's, with a note."""
+    from ..errors import UserError
+    from .common import scenario_overrides
+
+    for group in ("tumble", "target"):
+        if group in scenario:
+            print(f"{d}: its {group} {scenario[group]} is not used; each cell of the study "
+                  "and the command line set it", file=sys.stderr)
+    launch = dict(scenario.get("launch", {}))
+    flagged = {k.split(".", 1)[1] for k in scenario_overrides(args)[1] if k.startswith("launch.")}
+    dropped = {k: launch.pop(k) for k in list(launch) if k == "kind" or k in flagged}
+    if dropped:
+        print(f"{d}: its launch {dropped} is not used; each cell sets the launch policy and "
+              "the command line's --launch-* win", file=sys.stderr)
+    if launch:
+        from ..core.launch import LaunchConfig, LaunchError
+
+        try:
+            LaunchConfig(**launch)
+        except TypeError:
+            raise UserError(f"--designs {d} (launch:): unknown field in {sorted(launch)}; "
+                            "allowed kind, max_wait, max_tilt_deg, confirm_time, "
+                            "aim_offset") from None
+        except LaunchError as exc:
+            raise UserError(f"--designs {d} (launch:): {exc}") from None
+        print(f"{d}: its launch settings {launch} apply to its cells", file=sys.stderr)
+    return launch
+
+
+def with_launch(config, launch: dict):
+    """``config`` with the launch fields of ``launch`` (a design file's, checked by
+    _design_launch) set."""
+    if not launch:
+        return config
+    from dataclasses import replace
+
+    return config.replace(launch=replace(config.launch, **launch))
 
 
 def _closing_times_from_file(records: dict, results: Path) -> dict:
@@ -210,10 +251,11 @@ def _progress(args, label: str):
     return progress
 
 
-def _write_report(args, base, cells, designs, records, design_of) -> str:
+def _write_report(args, base, cells, designs, records, design_of, launch_of) -> str:
     """The study's table (.md, keeping its hand-written part), summary (.json, every
     cell's record) and figure (.png) from the cells recorded so far; returns the table
-    (``design_of``: each design's name or file -> its Design)."""
+    (``design_of``: each design's name or file -> its Design; ``launch_of``: -> the launch
+    settings its file states, _design_launch)."""
     from ..studies.paired import paired_cells
     from ..studies.report import comparison_table, plot_study, study_table
     from ..studies.summary import earlier_records, keep_written_text
@@ -255,11 +297,16 @@ def _write_report(args, base, cells, designs, records, design_of) -> str:
     md = (f"# {title}\n\nCommand: `{cmd}`\n\nBase configuration: integrator "
           f"{base.integrator}" + (f", step {base.implicit_dt:g} s, {base.implicit_iterations} sweeps"
                                   if base.integrator == "implicit" else "")
+          + "".join(f".\n\n{d}: its launch settings {launch_of[d]} (its file's launch:) in "
+                    "every cell" for d in designs if launch_of.get(d))
           + f".\n\nCells (a: {cells[0].label}" + (f", b: {cells[1].label}" if len(cells) == 2 else "")
           + "):\n" + legend + "\n\n" + table + "\n")
     (outdir / f"{name}.md").write_text(keep_written_text(outdir / f"{name}.md", md))
     summary = {"study": args.study, "samples": args.samples, "seed": args.seed,
-               "designs": designs, "cells": [{"label": c.label, "what": c.what,
+               "designs": designs,
+               **({"design_launch": {d: v for d, v in launch_of.items() if v}}
+                  if any(launch_of.values()) else {}),
+               "cells": [{"label": c.label, "what": c.what,
                                                "config": c.config.to_dict()} for c in cells],
                "stats": [r.to_json() for k, r in records.items() if r.stats.n],
                # cells of earlier runs this one did not cover (other cells, designs, seeds
