@@ -19,7 +19,7 @@ from tethernet_ros.commands.common import (add_config_argument, add_design_argum
                                            config_from_args, controller_config,
                                            controller_label, read_design_file)
 from tethernet_ros.core.config import ConfigError, SimConfig
-from tethernet_ros.core.design import Design, DesignError
+from tethernet_ros.core.design import Design, DesignError, load_design
 from tethernet_ros.core.episode import run_episode
 from tethernet_ros.core.launch import LaunchConfig
 from tethernet_ros.core.noise import NoiseModel
@@ -69,6 +69,7 @@ def test_flags_set_the_nested_settings_over_the_config_file_and_the_design_file(
                               V_e=[4.0237, 2.6035, 8.8838], d_c=2.2589)),
         {"tumble": {"rate_deg_s": 2.0, "axis": [0, 1, 1]},
          "launch": {"kind": "predictive", "max_tilt_deg": 15, "max_wait": 100}})
+    assert load_design(str(design)) == read_design_file(str(design))[0]   # the scenario aside
     # a vector axis; nothing given: the defaults (a target at rest, ideal sensing, threshold)
     assert config_from_args(parse("--design", "time-min", "--tumble-axis", "1,0,2",
                                   "--tumble-rate", "3")).tumble.axis == (1.0, 0.0, 2.0)

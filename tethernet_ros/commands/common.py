@@ -7,7 +7,7 @@ from pathlib import Path
 
 from optimizer.jsonio import json_clean
 
-from ..core.design import REFERENCE_DESIGNS, Design, DesignError, load_design
+from ..core.design import REFERENCE_DESIGNS, Design, read_design_file
 from ..core.kernel.policy_table import choices_help, controller_policy, selectable
 from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
 from ..core.sensing import NET_POINTS
@@ -49,51 +49,6 @@ def add_design_argument(p: argparse.ArgumentParser) -> None:
                         "mapping: rate_deg_s, axis, phase_deg; a target: mapping: name or "
                         "mesh, mass, units, com, inertia, attitude_deg; a launch: mapping: "
                         "kind, max_wait, max_tilt_deg, confirm_time, aim_offset)")
-
-
-#: the scenario mappings a design file may carry beside its design keys (at the top level
-#: or under ``design:``): group -> the fields it holds.  ``launch:`` states the launch
-#: settings the design was chosen or checked with (e.g. Case 2's tilt limit,
-#: docs/studies/launch-tilt.md).
-DESIGN_FILE_SCENARIO = {
-    "tumble": "rate_deg_s (deg/s), axis and phase_deg (deg)",
-    "target": "target fields (name, mesh, mass, units, com, inertia, attitude_deg)",
-    "launch": "launch fields (kind, max_wait, max_tilt_deg, confirm_time, aim_offset)",
-}
-
-
-def read_design_file(name_or_path: str) -> tuple[Design, dict]:
-    """A design by name or YAML file (``core.design.load_design``) and the file's scenario
-    mappings (group of DESIGN_FILE_SCENARIO -> its fields; a relative target ``mesh`` is
-    made relative to the file's folder); {} for a reference design or a file with none."""
-    path = Path(name_or_path)
-    if name_or_path in REFERENCE_DESIGNS or not path.is_file():
-        return load_design(name_or_path), {}
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError:
-        return load_design(name_or_path), {}           # (its error names the line)
-    if not isinstance(data, dict):
-        return load_design(name_or_path), {}
-    data = dict(data)
-    scenario = {g: data.pop(g) for g in DESIGN_FILE_SCENARIO if g in data}
-    inner = data.get("design")
-    if isinstance(inner, dict):
-        inner = dict(inner)
-        scenario.update({g: inner.pop(g) for g in DESIGN_FILE_SCENARIO if g in inner})
-        data = inner
-    scenario = {g: v for g, v in scenario.items() if v is not None}
-    for group, value in scenario.items():
-        if not isinstance(value, dict):
-            raise DesignError(group, f"in {str(path)!r}: got {value!r}; must be a mapping of "
-                              + DESIGN_FILE_SCENARIO[group])
-    target = scenario.get("target")
-    if target is not None and target.get("mesh") \
-            and not Path(str(target["mesh"])).expanduser().is_absolute():
-        scenario["target"] = {**target, "mesh": str(path.parent / str(target["mesh"]))}
-    return Design.from_dict(data), scenario
 
 
 def add_noise_arguments(p: argparse.ArgumentParser) -> None:

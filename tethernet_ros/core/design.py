@@ -196,10 +196,30 @@ PUBLISHED_OUTCOMES: dict[str, PublishedOutcome] = {
 }
 
 
+#: the scenario mappings a design file may carry beside its design keys (at the top level
+#: or under ``design:``): group -> the fields it holds.  ``launch:`` states the launch
+#: settings the design was chosen or checked with (e.g. Case 2's tilt limit,
+#: docs/studies/launch-tilt.md); the commands layer them under their flags.
+DESIGN_FILE_SCENARIO: dict[str, str] = {
+    "tumble": "rate_deg_s (deg/s), axis and phase_deg (deg)",
+    "target": "target fields (name, mesh, mass, units, com, inertia, attitude_deg)",
+    "launch": "launch fields (kind, max_wait, max_tilt_deg, confirm_time, aim_offset)",
+}
+
+
 def load_design(name_or_path: str) -> Design:
-    """A reference design by name, or a YAML file with keys m_c, L_n, r_n, d_L, V_e, d_c."""
+    """A reference design by name, or a YAML file with keys m_c, L_n, r_n, d_L, V_e, d_c
+    (its scenario mappings, read_design_file, are left aside)."""
+    return read_design_file(name_or_path)[0]
+
+
+def read_design_file(name_or_path: str) -> tuple[Design, dict]:
+    """A reference design by name, or a design YAML file (keys m_c, L_n, r_n, d_L, V_e, d_c
+    at the top level or under ``design:``), and the file's scenario mappings (group of
+    DESIGN_FILE_SCENARIO -> its fields; a relative target ``mesh`` is made relative to the
+    file's folder; {} for a reference design or a file with none)."""
     if name_or_path in REFERENCE_DESIGNS:
-        return REFERENCE_DESIGNS[name_or_path]
+        return REFERENCE_DESIGNS[name_or_path], {}
     path = Path(name_or_path)
     if path.suffix.lower() not in (".yaml", ".yml", ".json") and not path.exists():
         raise DesignError("design", f"unknown design {name_or_path!r}; allowed names are "
@@ -214,6 +234,20 @@ def load_design(name_or_path: str) -> Design:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
         raise DesignError("design", f"file {str(path)!r} is not valid YAML{where}") from None
-    if isinstance(data, Mapping) and "design" in data and isinstance(data["design"], Mapping):
-        data = data["design"]
-    return Design.from_dict(data)
+    if not isinstance(data, Mapping):
+        return Design.from_dict(data), {}                   # (its error names the type)
+    data = dict(data)
+    scenario = {g: data.pop(g) for g in DESIGN_FILE_SCENARIO if g in data}
+    if isinstance(data.get("design"), Mapping):
+        data = dict(data["design"])
+        scenario.update({g: data.pop(g) for g in DESIGN_FILE_SCENARIO if g in data})
+    scenario = {g: v for g, v in scenario.items() if v is not None}
+    for group, value in scenario.items():
+        if not isinstance(value, Mapping):
+            raise DesignError(group, f"in {str(path)!r}: got {value!r}; must be a mapping of "
+                              + DESIGN_FILE_SCENARIO[group])
+    scenario = {g: dict(v) for g, v in scenario.items()}
+    mesh = scenario.get("target", {}).get("mesh")
+    if mesh and not Path(str(mesh)).expanduser().is_absolute():
+        scenario["target"]["mesh"] = str(path.parent / str(mesh))
+    return Design.from_dict(data), scenario
