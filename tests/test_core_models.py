@@ -156,6 +156,34 @@ def test_latch_releases_no_force_and_the_pull_resumes_beyond_the_lock_distance()
     assert sc.drawstring.locked[0] == 1                                 # a latch stays latched
 
 
+def test_a_whole_number_makes_the_same_settings_as_its_float():
+    """A YAML file writes 15 where a flag gives 15.0: every field declared float stores a
+    float, so both make the same configuration, design and run key; integer fields stay
+    integers and a bool is still refused."""
+    from tethernet_ros.core.design import Design
+    from tethernet_ros.core.noise import NoiseModel
+    from tethernet_ros.montecarlo.keys import run_key
+
+    ints = SimConfig.from_dict({"settle_time": 20, "launch": {"max_tilt_deg": 15, "max_wait": 100},
+                                "tumble": {"rate_deg_s": 2, "phase_deg": 10},
+                                "sensing": {"rate_hz": 50}, "policy": {"closing_time": 1},
+                                "tug": {"hold_time": 5}})
+    floats = SimConfig.from_dict({"settle_time": 20.0,
+                                  "launch": {"max_tilt_deg": 15.0, "max_wait": 100.0},
+                                  "tumble": {"rate_deg_s": 2.0, "phase_deg": 10.0},
+                                  "sensing": {"rate_hz": 50.0}, "policy": {"closing_time": 1.0},
+                                  "tug": {"hold_time": 5.0}})
+    assert repr(ints.to_dict()) == repr(floats.to_dict())
+    assert type(ints.grid_nodes) is int and type(ints.tether_segments) is int
+    design = dict(m_c=2, L_n=20, r_n=0.001, d_L=15, V_e=[5, 6, 10], d_c=-1)
+    a, b = Design.from_dict(design), Design.from_dict({k: (float(v) if isinstance(v, int) else v)
+                                                        for k, v in design.items()})
+    assert run_key(a, NoiseModel(sigma_target_mass=0), ints) == \
+        run_key(b, NoiseModel(sigma_target_mass=0.0), floats)
+    with pytest.raises(ConfigError, match="settle_time"):
+        SimConfig(settle_time=True)
+
+
 def test_presets_and_choices_are_validated():
     assert SimConfig.preset("reference").lock_model == "latch"
     with pytest.raises(ConfigError, match="'preset'"):

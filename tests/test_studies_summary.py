@@ -184,7 +184,9 @@ def test_a_design_files_launch_settings_hold_in_its_study_cells(tmp_path, capsys
     from tethernet_ros.cli import build_parser
     from tethernet_ros.commands.common import config_from_args, read_design_file
     from tethernet_ros.commands.study import _design_launch, with_launch
+    from tethernet_ros.core.noise import NoiseModel
     from tethernet_ros.errors import UserError
+    from tethernet_ros.montecarlo.keys import run_key
     from tethernet_ros.studies.cells import STUDIES
 
     f = tmp_path / "d.yaml"
@@ -199,6 +201,9 @@ def test_a_design_files_launch_settings_hold_in_its_study_cells(tmp_path, capsys
 
     by_file, by_flag = cell_configs(), cell_configs("--launch-max-tilt", "15")
     assert by_file == by_flag
+    design = read_design_file(str(f))[0]
+    assert [run_key(design, NoiseModel(), c) for c in by_file] == \
+        [run_key(design, NoiseModel(), c) for c in by_flag]          # the file's 15, the flag's 15.0
     assert {c.launch.kind for c in by_file} == {"immediate", "predictive"}   # the cells'
     assert {c.launch.max_tilt_deg for c in cell_configs("--launch-max-tilt", "20")} == {20.0}
     err = capsys.readouterr().err

@@ -3,6 +3,7 @@ what it got and what it must be (``<group> field '<name>': got <v>; must be <wha
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 
 def check_choice(group: str, name: str, value, allowed, error) -> None:
@@ -33,3 +34,19 @@ def finite_numbers(value) -> tuple | None:
     except (TypeError, ValueError):
         return None
     return t if all(math.isfinite(c) for c in t) else None
+
+
+def declared_floats(settings) -> None:
+    """Store every whole number given to a field of the (frozen) dataclass ``settings``
+    declared ``float`` as that float, so that 15 and 15.0 make equal settings with equal
+    dicts and run keys (a YAML file writes 15 where a flag gives 15.0).  Bools and numbers
+    past a float's range are left for the field's own check to refuse."""
+    for f in fields(settings):
+        if f.type not in ("float", float):
+            continue
+        v = getattr(settings, f.name)
+        if isinstance(v, int) and not isinstance(v, bool):
+            try:
+                object.__setattr__(settings, f.name, float(v))
+            except OverflowError:
+                pass

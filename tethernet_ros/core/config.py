@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, fields, replace, asdict
 
+from .checks import declared_floats
 from .launch import LaunchConfig
 from .policies import PolicyConfig
 from .sensing import SensingConfig
@@ -196,6 +197,7 @@ class SimConfig:
     tug: TugConfig = field(default_factory=TugConfig)
 
     def __post_init__(self):
+        declared_floats(self)
         for name, (lo, hi, what) in _LIMITS.items():
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \

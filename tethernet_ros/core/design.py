@@ -12,6 +12,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from .checks import declared_floats
+
 #: Order of the optimisation vector X (docs/model.md §8).
 VARIABLE_NAMES: tuple[str, ...] = ("m_c", "L_n", "r_n", "d_L", "V_x", "V_y", "V_z", "d_c")
 
@@ -73,6 +75,7 @@ class Design:
     d_c: float
 
     def __post_init__(self):
+        declared_floats(self)
         object.__setattr__(self, "V_e", tuple(float(v) for v in self.V_e))
         validate_design(self)
 

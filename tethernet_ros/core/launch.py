@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from . import detmath
-from .checks import check_choice, check_numbers, finite_numbers
+from .checks import check_choice, check_numbers, declared_floats, finite_numbers
 from .kernel.launch import LAUNCH_POLICIES, LaunchModel, decide_launch_one, immediate_launch
 from .kernel.policy_table import KERNEL, NONE, spec
 from .kernel.sensing import N_CHANNELS
@@ -74,6 +74,7 @@ class LaunchConfig:
     aim_offset: tuple = (0.0, 0.0)
 
     def __post_init__(self):
+        declared_floats(self)
         check_choice("launch", "kind", self.kind, LAUNCH_POLICIES, LaunchError)
         check_numbers("launch", self, _LIMITS, LaunchError)
         v = self.aim_offset

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field, asdict, replace
 import numpy as np
 
 from . import detmath
+from .checks import declared_floats
 
 #: Noise sources whose spread can be scaled (sensitivity study).
 NOISE_SOURCES: tuple[str, ...] = ("distance", "orientation", "speed", "polar", "azimuth", "closing",
@@ -132,6 +133,7 @@ class NoiseModel:
     scales: dict = field(default_factory=lambda: {s: 1.0 for s in NOISE_SOURCES})
 
     def __post_init__(self):
+        declared_floats(self)
         for name in SPREAD_FIELDS:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .checks import declared_floats
 from .kernel.policy import POLICIES, decide_one, new_policy_data
 
 __all__ = ["POLICIES", "Policy", "PolicyConfig", "PolicyError"]
@@ -44,6 +45,7 @@ class PolicyConfig:
     apex: bool = True
 
     def __post_init__(self):
+        declared_floats(self)
         if self.kind not in POLICIES:
             raise PolicyError(f"policy field 'kind': got {self.kind!r}; must be one of "
                               f"{', '.join(POLICIES)}")

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import check_choice, check_numbers
+from .checks import check_choice, check_numbers, declared_floats
 from .kernel.model import steps_every
 from .kernel.sensing import (C_NET, C_OMEGA, C_QUAT, C_TGT, C_VEL, N_CHANNELS, TARGET_POSITIONS,
                              det_log, measure_one, new_sensor_data, next_normal, next_uniform,
@@ -70,6 +70,7 @@ class SensingConfig:
     sigma_velocity: float = 0.0
 
     def __post_init__(self):
+        declared_floats(self)
         check_choice("sensing", "net_point", self.net_point, NET_POINTS, SensingError)
         check_choice("sensing", "target_position", self.target_position, TARGET_POSITIONS,
                      SensingError)

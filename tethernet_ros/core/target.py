@@ -16,7 +16,7 @@ import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from .checks import finite_numbers
+from .checks import declared_floats, finite_numbers
 
 #: the default target, the only one of the ``revolution`` kind
 DEFAULT_NAME = "zenit-2"
@@ -68,6 +68,7 @@ class TargetConfig:
     attitude_deg: tuple = ()
 
     def __post_init__(self):
+        declared_floats(self)
         if not isinstance(self.name, str) or not self.name:
             raise TargetError(f"target field 'name': got {self.name!r}; must be a non-empty name")
         mesh = str(self.mesh) if self.mesh else ""

@@ -36,7 +36,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .checks import check_numbers
+from .checks import check_numbers, declared_floats
 from .kernel.data import E_TUG_STEP, E_TUG_TAUT
 
 __all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "outcome_text",
@@ -81,6 +81,7 @@ class TugConfig:
     max_slid_share: float = 0.5
 
     def __post_init__(self):
+        declared_floats(self)
         if not isinstance(self.enabled, bool):
             raise TugError(f"tug field 'enabled': got {self.enabled!r}; must be true or false")
         check_numbers("tug", self, _LIMITS, TugError)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import detmath
-from .checks import finite_numbers
+from .checks import declared_floats, finite_numbers
 
 #: named axes in the target's body frame (x: the long axis)
 AXES = {"flat": (0.0, 1.0, 0.0), "los": (0.0, 0.0, 1.0), "long": (1.0, 0.0, 0.0)}
@@ -49,6 +49,7 @@ class TumbleConfig:
     phase_deg: float = 0.0
 
     def __post_init__(self):
+        declared_floats(self)
         r = self.rate_deg_s
         if isinstance(r, bool) or not isinstance(r, (int, float)) or not math.isfinite(r) \
                 or not 0.0 <= r <= MAX_RATE_DEG_S:
