@@ -179,15 +179,11 @@ def _design_launch(d: str, scenario: dict, args) -> dict:
         print(f"{d}: its launch {dropped} is not used; each cell sets the launch policy and "
               "the command line's --launch-* win", file=sys.stderr)
     if launch:
-        from ..core.launch import LaunchConfig, LaunchError
+        from ..core.config import ConfigError, SimConfig
 
-        try:
-            LaunchConfig(**launch)
-        except TypeError:
-            raise UserError(f"--designs {d} (launch:): unknown field in {sorted(launch)}; "
-                            "allowed kind, max_wait, max_tilt_deg, confirm_time, "
-                            "aim_offset") from None
-        except LaunchError as exc:
+        try:        # the configuration's own reading names an unknown field or a bad value
+            SimConfig.from_dict({"launch": launch})
+        except ConfigError as exc:
             raise UserError(f"--designs {d} (launch:): {exc}") from None
         print(f"{d}: its launch settings {launch} apply to its cells", file=sys.stderr)
     return launch
