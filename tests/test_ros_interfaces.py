@@ -126,7 +126,7 @@ EXPECTED_FIELDS = {
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
         "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
         "target_mass": "double", "set_launch": "boolean", "launch_policy": "string",
-        "launch_max_wait": "double",
+        "launch_max_wait": "double", "launch_max_tilt_deg": "double",
     },
     RunCapture.Response: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",
@@ -137,7 +137,7 @@ EXPECTED_FIELDS = {
         "noise": "tethernet_msgs/NoiseSettings", "record_bag": "boolean", "bag_name": "string",
         "set_tumble": "boolean", "tumble": "tethernet_msgs/Tumble", "target": "string",
         "target_mass": "double", "set_launch": "boolean", "launch_policy": "string",
-        "launch_max_wait": "double",
+        "launch_max_wait": "double", "launch_max_tilt_deg": "double",
     },
     Capture.Result: {
         "status": "uint8", "error": "string", "result": "tethernet_msgs/EpisodeResult",

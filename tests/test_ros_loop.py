@@ -213,10 +213,13 @@ def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite
     net leaves, sim_node publishes the truth of the stowed net and the turning target at
     every control step, sensor_node senses it, actuator_node's built-in predictive policy
     answers LaunchDecisions; the result is run_episode's bit for bit, launch time
-    included, and replay finds and replays the decisions."""
-    # (8 deg/s: a 7.8 s wait, 391 control steps before the launch; at 2 deg/s it was 38 s)
+    included, and replay finds and replays the decisions.  The request carries the tilt
+    limit (15 deg, not the suite's default 30: Case 2's choice's, docs/cases)."""
+    # (8 deg/s: a 7.8 s wait at 30 deg, 391 control steps before the launch; at 2 deg/s it
+    # was 38 s)
     tumble = TumbleConfig(rate_deg_s=8.0, axis="flat")
-    launch = LaunchConfig(kind="predictive", max_wait=120.0)
+    launch = LaunchConfig(kind="predictive", max_wait=120.0, max_tilt_deg=15.0)
+    assert CONFIG.launch.max_tilt_deg != launch.max_tilt_deg
     ref = run_episode(DESIGN, NOISE.sample(SEED), CONFIG.replace(tumble=tumble, launch=launch),
                       record_trace=False)
     assert ref.launch_time > 1.0
@@ -252,7 +255,7 @@ def test_lockstep_predictive_launch_equals_run_episode_and_replay_finds_it(suite
 
 
 def test_bad_launch_requests_are_refused_and_an_unanswered_launch_fails(suite):
-    """A bad max_wait or policy is REJECTED naming the field; a launch left to a
+    """A bad max_wait, tilt limit or policy is REJECTED naming the field; a launch left to a
     controller that never answers (policy 'external', no controller of launches) fails
     with the reason, and the suite serves the next request."""
     for fields, words in (({"launch_policy": "predictive", "launch_max_wait": -1.0},
@@ -260,7 +263,13 @@ def test_bad_launch_requests_are_refused_and_an_unanswered_launch_fails(suite):
                           ({"launch_policy": "predictive", "launch_max_wait": 1e9},
                            r"^launch_max_wait: got 1000000000\.0; must be a time in"),
                           ({"launch_policy": "eager", "launch_max_wait": 10.0},
-                           r"^launch_policy: got 'eager'; must be one of immediate, predictive")):
+                           r"^launch_policy: got 'eager'; must be one of immediate, predictive"),
+                          ({"launch_policy": "predictive", "launch_max_wait": 10.0,
+                            "launch_max_tilt_deg": 120.0},
+                           r"^launch_max_tilt_deg: got 120\.0; must be an angle in \[0\.1, 90\] deg"),
+                          ({"launch_policy": "predictive", "launch_max_wait": 10.0,
+                            "launch_max_tilt_deg": float("nan")},
+                           r"^launch_max_tilt_deg: got nan; must be an angle in")):
         req = suite.request(DESIGN, 3, record_bag=False)
         req.set_launch = True
         for k, v in fields.items():
@@ -268,6 +277,9 @@ def test_bad_launch_requests_are_refused_and_an_unanswered_launch_fails(suite):
         resp = suite.call(req, timeout=60)
         assert resp.status == REJECTED
         assert re.match(words, resp.error), resp.error
+    # settings a request cannot carry are refused, not lost
+    with pytest.raises(ValueError, match=r"^launch: confirm_time cannot be set per request"):
+        suite.request(DESIGN, 3, launch=LaunchConfig(kind="predictive", confirm_time=2.0))
     req = suite.request(DESIGN, 3, record_bag=False, tumble=TumbleConfig(rate_deg_s=2.0),
                         launch=LaunchConfig(kind="external"))
     resp = suite.call(req, timeout=120)

@@ -393,8 +393,9 @@ class RosSuite:
         """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
         episode (None: the suite's configuration's); ``target``: a catalogue name or mesh
         file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's);
-        ``launch`` (a LaunchConfig): its launch policy and max_wait (None: the suite's
-        configuration's)."""
+        ``launch`` (a LaunchConfig): its launch policy, max_wait and max_tilt_deg (None: the
+        suite's configuration's; its other settings must be the configuration's, which the
+        request cannot carry)."""
         from tethernet_msgs.srv import RunCapture
 
         req = RunCapture.Request()
@@ -409,9 +410,23 @@ class RosSuite:
             req.tumble = conv.tumble_msg(tumble)
         req.target, req.target_mass = str(target), float(target_mass)
         if launch is not None:
+            self._check_launch(launch)
             req.set_launch = True
             req.launch_policy, req.launch_max_wait = launch.kind, float(launch.max_wait)
+            req.launch_max_tilt_deg = float(launch.max_tilt_deg)
         return req
+
+    def _check_launch(self, launch) -> None:
+        """Refuse a LaunchConfig whose settings a request cannot carry (confirm_time,
+        aim_offset) and that differ from the suite's configuration: they would be lost."""
+        mine = self.config.launch
+        lost = [name for name in ("confirm_time", "aim_offset")
+                if getattr(launch, name) != getattr(mine, name)]
+        if lost:
+            raise ValueError(
+                f"launch: {', '.join(lost)} cannot be set per request (the suite's "
+                f"configuration holds {', '.join(f'{n}={getattr(mine, n)!r}' for n in lost)}); "
+                "start the suite with a configuration that has them")
 
     def set_parameters(self, node: str, values: dict, timeout: float = 10.0) -> list[str]:
         """Set parameters of one of the suite's nodes (as ``ros2 param set`` does; they

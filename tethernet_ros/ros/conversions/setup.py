@@ -62,21 +62,26 @@ def config_with_tumble(config: SimConfig, request) -> SimConfig:
 
 
 def launch_from_request(request, base=None):
-    """The LaunchConfig a request sets (``set_launch``: ``launch_policy`` and
-    ``launch_max_wait`` over ``base``'s other settings; None: the configured launch);
-    RequestError names the bad field and its range."""
+    """The LaunchConfig a request sets (``set_launch``: ``launch_policy``,
+    ``launch_max_wait`` and ``launch_max_tilt_deg``, 0 keeping ``base``'s limit, over
+    ``base``'s other settings; None: the configured launch); RequestError names the bad
+    field and its range."""
     from dataclasses import replace
 
     from ...core.launch import LaunchConfig, LaunchError
 
     if not getattr(request, "set_launch", False):
         return None
+    fields = {"kind": str(request.launch_policy), "max_wait": float(request.launch_max_wait)}
+    tilt = float(getattr(request, "launch_max_tilt_deg", 0.0))
+    if tilt != 0.0:
+        fields["max_tilt_deg"] = tilt
     try:
-        return replace(base or LaunchConfig(), kind=str(request.launch_policy),
-                       max_wait=float(request.launch_max_wait))
+        return replace(base or LaunchConfig(), **fields)
     except LaunchError as exc:
         text = str(exc)
-        field = "launch_max_wait" if "'max_wait'" in text else "launch_policy"
+        field = next((f"launch_{name}" for name in ("max_wait", "max_tilt_deg")
+                      if f"'{name}'" in text), "launch_policy")
         raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
 
 
