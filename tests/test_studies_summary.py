@@ -249,3 +249,40 @@ def test_two_summaries_pair_their_cells_sample_by_sample(tmp_path, capsys):
     assert rows[3].split(" | ")[2] == "-" and rows[3].endswith("| - | - | - | - | - |")
     b.write_text(json.dumps({"stats": [{k: v for k, v in REC.items() if k != "verdicts"}]}))
     assert script.main([str(a), str(b)]) == 2
+
+
+def test_seed_sets_pool_cell_by_cell_and_other_settings_are_refused(tmp_path, capsys):
+    """scripts/pool_seed_sets.py: one cell's verdicts over seed sets, added up; the cells
+    kept from earlier runs are not this run's (other settings under one label) and are
+    left out; two summaries of one base seed, or a cell of other settings, are refused; a
+    field only one configuration has is named."""
+    from script_modules import load_script
+
+    script = load_script("pool_seed_sets")
+    label = "flat 4 adaptive predictive"
+    cfg = {"launch": {"kind": "predictive", "max_tilt_deg": 30.0}, "settle_time": 20.0}
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    a.write_text(json.dumps({"seed": 0, "cells": [{"label": label, "config": cfg}],
+                             "stats": [_cell(label, "1101")],
+                             "kept": [_cell(label, "0000")]}))
+    b.write_text(json.dumps({"seed": 5000, "cells": [{"label": label, "config": {
+        **cfg, "launch": {"kind": "predictive", "max_tilt_deg": 30, "confirm_time": 1.0}}}],
+        "stats": [_cell(label, "111111", seed=5000)]}))
+    assert script.main([str(a), str(b)]) == 0
+    rows = capsys.readouterr().out.splitlines()
+    assert rows[0] == ("| cell | seed 0 | seed 5000 | pooled | P*_s pooled % [95 %] | "
+                       "one set's P*_s % |")
+    lo, hi = wilson_interval(9, 10)
+    assert rows[2] == (f"| {label} | 3/4 | 6/6 | 9/10 | **90.0** [{100 * lo:.1f}, "
+                       f"{100 * hi:.1f}] | 75.0-100.0 |")
+    assert rows[3] == ("- fields only some configurations have (added later, at their "
+                       "defaults): launch.confirm_time")
+    same_seed = tmp_path / "c.json"
+    same_seed.write_text(a.read_text())
+    with pytest.raises(SystemExit, match="same base seed"):
+        script.main([str(a), str(same_seed)])
+    b.write_text(json.dumps({"seed": 5000, "cells": [{"label": label, "config": {
+        **cfg, "launch": {"kind": "predictive", "max_tilt_deg": 15.0}}}],
+        "stats": [_cell(label, "111111", seed=5000)]}))
+    with pytest.raises(SystemExit, match=r"settings differ .*: launch\.max_tilt_deg$"):
+        script.main([str(a), str(b)])
