@@ -131,18 +131,36 @@ def test_writer_refuses_clobbering_and_bad_names(tmp_path):
 
 def test_damaged_files_are_read_up_to_the_damage(tmp_path):
     """A truncated file is read up to the cut, whole chunks at a time; a corrupted one
-    never raises and keeps every message of the chunks before the damage.  (rosbags'
-    writer stores no CRCs, so bytes changed inside a chunk are not always detected: what
-    that chunk decodes to is not checked here.)"""
+    never raises and keeps every message of the chunks before the damage; a chunk whose
+    bytes changed is found by its CRC (the writer stores each chunk's) and none of its
+    messages is read."""
+    import zlib
+
+    import zstandard
     from mcap.reader import make_reader
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    from tethernet_ros.bags.writer import CHUNK_CRC_OFFSET
 
     # 60 states of 14.7 kB, a chunk closed at 64 kiB: 5 states a chunk, 12 chunks
     path = _write(tmp_path / "d", n=60, chunk_bytes=64 * 1024).close()
     mcap = path / "d_0.mcap"
     data = mcap.read_bytes()
     with open(mcap, "rb") as f:
-        chunks = make_reader(f).get_summary().chunk_indexes
+        reader = make_reader(f, validate_crcs=True)
+        chunks = reader.get_summary().chunk_indexes
+        assert len(list(reader.iter_messages())) == 61          # every CRC checks out
     assert len(chunks) == 12
+    for ch in chunks:                                           # each one's own, not 0
+        crc = int.from_bytes(data[ch.chunk_start_offset + CHUNK_CRC_OFFSET:][:4], "little")
+        assert crc != 0
+    # the CRC is that of the chunk's records, as MCAP defines it
+    with open(mcap, "rb") as f:
+        first = next(r for r in StreamReader(f, emit_chunks=True).records if isinstance(r, Chunk))
+    records = zstandard.ZstdDecompressor().decompress(first.data,
+                                                      max_output_size=first.uncompressed_size)
+    assert first.uncompressed_crc == zlib.crc32(records)
     previous = -1
     for frac in np.linspace(0.0, 0.98, 25):
         mcap.write_bytes(data[: int(len(data) * frac)])
@@ -163,6 +181,13 @@ def test_damaged_files_are_read_up_to_the_damage(tmp_path):
         intact = max([ch.message_end_time - 9 for ch in chunks
                       if ch.chunk_start_offset + ch.chunk_length <= off], default=0)
         assert steps[:intact] == list(range(intact))
+        if any(ch.chunk_start_offset <= off < ch.chunk_start_offset + ch.chunk_length
+               for ch in chunks):
+            # inside a chunk: found, and nothing of that chunk or after it is read
+            assert c.problems and steps == list(range(intact)), (off, c.problems, len(steps))
+        else:
+            # outside the chunks (their indexes, the summary): no message is changed
+            assert steps == list(range(len(steps)))
 
 
 def test_message_definitions_embed_every_nested_type():

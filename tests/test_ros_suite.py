@@ -309,6 +309,8 @@ def test_a_setup_heard_again_is_a_repeat(suite, captured):
 
 
 def test_replay_truncated_and_corrupted(captured, tmp_path):
+    from mcap.reader import make_reader
+
     from tethernet_ros.bags import copy_truncated
 
     _, bag = captured
@@ -324,10 +326,16 @@ def test_replay_truncated_and_corrupted(captured, tmp_path):
     text = run_cli("replay", str(cut))
     assert text.returncode == 1 and "truncated" in text.stdout and "Traceback" not in text.stderr
 
+    # 256 bytes zeroed inside the chunk at (or after) the file's middle: its CRC finds it
+    # (outside the chunks, zeros could fall in an index and change no message)
     bad = copy_truncated(bag, tmp_path / "bad", 1.0)
     f = next(bad.glob("*.mcap"))
     data = bytearray(f.read_bytes())
-    mid = len(data) // 2
+    with open(f, "rb") as fh:
+        chunks = make_reader(fh).get_summary().chunk_indexes
+    chunk = next(c for c in chunks if c.chunk_start_offset + c.chunk_length > len(data) // 2)
+    mid = chunk.chunk_start_offset + chunk.chunk_length // 2
+    assert chunk is not chunks[0]
     data[mid:mid + 256] = bytes(256)
     f.write_bytes(bytes(data))
     out = run_cli("replay", str(bad), "--json")

@@ -7,8 +7,10 @@ file (every message written so far is readable and indexed) but keeps the ``.par
 name, removes metadata.yaml (a bag without it is not a finished recording) and writes the
 reason into the marker.  A writer that dies leaves the ``.partial`` folder, the marker
 ("recording in progress") and an MCAP file without footer, readable up to its last whole
-chunk (CHUNK_BYTES of messages before compression).  rosbags stores no CRCs (0: "not
-computed", as MCAP allows), so a reader finds truncation but not every changed byte.
+chunk (CHUNK_BYTES of messages before compression).  rosbags writes no CRCs (0: "not
+computed", as MCAP allows); each chunk here carries the CRC-32 of its records (MCAP's
+``uncompressed_crc``), so a reader that checks them (reader.py) finds a chunk whose bytes
+changed, not only a file cut short.  The summary's records carry none.
 
 Times are ns since the epoch.  Thread-safe: the recorder thread writes while another
 thread may close or abort.
@@ -16,8 +18,10 @@ thread may close or abort.
 from __future__ import annotations
 
 import os
+import struct
 import threading
 import time
+import zlib
 from pathlib import Path
 
 from .naming import MARKER, PARTIAL_SUFFIX, BagError, check_name, partial_path, storage_file
@@ -26,6 +30,9 @@ from .typestore import message_definition, type_hash
 COMPRESSION = ("zstd", "none")
 #: bytes of messages per MCAP chunk (before compression): 17 states of the default design
 CHUNK_BYTES = 256 * 1024
+#: where a Chunk record's uncompressed_crc lies, from the record's start (MCAP: opcode
+#: uint8, length uint64, message_start_time, message_end_time, uncompressed_size uint64)
+CHUNK_CRC_OFFSET = 1 + 8 + 3 * 8
 #: rosbag2's "infinite" duration (s, ns), as Jazzy writes it for default QoS durations
 _INFINITE = (9223372036, 854775807)
 
@@ -64,6 +71,17 @@ def _rosbag2_writer(chunk_bytes: int):
             super().write(connection, timestamp, data)
             if self.chunk.bio.tell() >= chunk_bytes:
                 self.close_chunk()
+
+        def close_chunk(self) -> None:
+            # rosbags writes the chunk record first, at the file's end, with a CRC of 0:
+            # put the CRC of the chunk's records in its place
+            records = self.chunk.bio.getvalue()
+            start = self.bio.tell()
+            super().close_chunk()
+            end = self.bio.tell()
+            self.bio.seek(start + CHUNK_CRC_OFFSET)
+            self.bio.write(struct.pack("<I", zlib.crc32(records)))
+            self.bio.seek(end)
 
     class NamedWriter(Writer):
         STORAGE_PLUGINS = {**Writer.STORAGE_PLUGINS, StoragePlugin.MCAP: McapStorage}
