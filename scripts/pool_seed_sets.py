@@ -20,6 +20,7 @@ import json
 import sys
 
 from tethernet_ros.core.metrics import wilson_interval
+from tethernet_ros.studies.summary import CellRecord
 
 
 def _flat(d: dict, prefix: str = "") -> dict:
@@ -68,16 +69,15 @@ def pool(paths: list[str], design: str | None = None) -> tuple[list[str], list[s
         for i in range(1, len(summaries)):
             if label not in configs[0] or label not in configs[i]:
                 raise SystemExit(f"cell {label!r}: a summary does not state its settings")
-            else:
-                differ, only = compare_configs(configs[0][label], configs[i][label])
-                if differ:
-                    raise SystemExit(f"cell {label!r}: settings differ between {paths[0]} and "
-                                     f"{paths[i]}: {', '.join(differ)}")
-                only_fields.update(only)
+            differ, only = compare_configs(configs[0][label], configs[i][label])
+            if differ:
+                raise SystemExit(f"cell {label!r}: settings differ between {paths[0]} and "
+                                 f"{paths[i]}: {', '.join(differ)}")
+            only_fields.update(only)
         if len({r["key"] for r in recs}) > 1:
             other_keys += 1
-        ks = [str(r["verdicts"]).count("1") for r in recs]
-        ns = [len(str(r["verdicts"])) for r in recs]
+        stats = [CellRecord.from_json(r, label, dsg).stats for r in recs]   # (checks them)
+        ks, ns = [st.successes for st in stats], [st.n for st in stats]
         k, n = sum(ks), sum(ns)
         lo, hi = wilson_interval(k, n)
         each = " | ".join(f"{a}/{b}" for a, b in zip(ks, ns))

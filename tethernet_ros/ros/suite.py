@@ -412,16 +412,19 @@ class RosSuite:
         if launch is not None:
             self._check_launch(launch)
             req.set_launch = True
-            req.launch_policy, req.launch_max_wait = launch.kind, float(launch.max_wait)
-            req.launch_max_tilt_deg = float(launch.max_tilt_deg)
+            for name, field in conv.LAUNCH_REQUEST_FIELDS.items():
+                setattr(req, field, getattr(launch, name))
         return req
 
     def _check_launch(self, launch) -> None:
-        """Refuse a LaunchConfig whose settings a request cannot carry (confirm_time,
-        aim_offset) and that differ from the suite's configuration: they would be lost."""
+        """Refuse a LaunchConfig whose settings a request cannot carry (those outside
+        conversions.LAUNCH_REQUEST_FIELDS) and that differ from the suite's configuration:
+        they would be lost."""
+        from dataclasses import fields
+
         mine = self.config.launch
-        lost = [name for name in ("confirm_time", "aim_offset")
-                if getattr(launch, name) != getattr(mine, name)]
+        lost = [f.name for f in fields(launch) if f.name not in conv.LAUNCH_REQUEST_FIELDS
+                and getattr(launch, f.name) != getattr(mine, f.name)]
         if lost:
             raise ValueError(
                 f"launch: {', '.join(lost)} cannot be set per request (the suite's "

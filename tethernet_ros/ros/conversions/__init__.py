@@ -19,8 +19,8 @@ from .stamps import split_time, set_time, time_from_msg
 from .design import DESIGN_FIELDS, design_msg, design_from_msg
 from .noise import (NOISE_FIELDS, noise_settings_msg, noise_settings_from_msg, noise_model_from_msg,
                     noise_sample_msg, noise_sample_from_msg)
-from .setup import (tumble_msg, tumble_from_msg, config_with_tumble, launch_from_request,
-                    target_from_request,
+from .setup import (LAUNCH_REQUEST_FIELDS, tumble_msg, tumble_from_msg, config_with_tumble,
+                    launch_from_request, target_from_request,
                     config_overrides, config_from_json, setup_msg, setup_from_msg)
 from .commands import launch_command_msg, closing_command_msg, commands_from_msgs
 from .states import net_state_msg, net_state_from_msg, target_pose_msg, clock_msg
@@ -34,7 +34,8 @@ __all__ = ["TUG_FIELDS", "tug_from_msg",
            "RequestError", "split_time", "set_time", "time_from_msg", "DESIGN_FIELDS", "design_msg",
            "design_from_msg", "NOISE_FIELDS", "noise_settings_msg", "noise_settings_from_msg",
            "noise_model_from_msg", "noise_sample_msg", "noise_sample_from_msg", "tumble_msg",
-           "tumble_from_msg", "config_with_tumble", "launch_from_request", "target_from_request",
+           "tumble_from_msg", "config_with_tumble", "LAUNCH_REQUEST_FIELDS", "launch_from_request",
+           "target_from_request",
            "config_overrides",
            "config_from_json", "setup_msg", "setup_from_msg", "launch_command_msg",
            "closing_command_msg", "commands_from_msgs", "net_state_msg", "net_state_from_msg",

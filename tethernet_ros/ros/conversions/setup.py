@@ -61,6 +61,12 @@ def config_with_tumble(config: SimConfig, request) -> SimConfig:
     return config if target is None else config.replace(target=target)
 
 
+#: the LaunchConfig fields a RunCapture request or Capture goal carries (with
+#: ``set_launch``) -> its field; the others come from the capture node's configuration
+LAUNCH_REQUEST_FIELDS = {"kind": "launch_policy", "max_wait": "launch_max_wait",
+                         "max_tilt_deg": "launch_max_tilt_deg"}
+
+
 def launch_from_request(request, base=None):
     """The LaunchConfig a request sets (``set_launch``: ``launch_policy``,
     ``launch_max_wait`` and ``launch_max_tilt_deg``, 0 keeping ``base``'s limit, over
@@ -80,7 +86,7 @@ def launch_from_request(request, base=None):
         return replace(base or LaunchConfig(), **fields)
     except LaunchError as exc:
         text = str(exc)
-        field = next((f"launch_{name}" for name in ("max_wait", "max_tilt_deg")
+        field = next((req for name, req in LAUNCH_REQUEST_FIELDS.items()
                       if f"'{name}'" in text), "launch_policy")
         raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
 
