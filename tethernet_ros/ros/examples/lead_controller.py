@@ -18,7 +18,7 @@ built-in threshold policy, bit for bit.
 import math
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from tethernet_msgs.msg import ClosingDecision, LaunchDecision, Measurement
@@ -65,8 +65,13 @@ class LeadController(Node):
 def main(args=None) -> int:
     rclpy.init(args=args)
     node = LeadController()
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
+        # short waits, not rclpy.spin(node): now and then a SIGTERM shuts the context down
+        # without waking a wait that has no end, and the node would never exit
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=0.2)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
