@@ -19,7 +19,9 @@ SHORT = dict(settle_time=2.0, tether_order="chain")
 
 
 def _tug(peak=4000.0, **kw):
-    return TugConfig(enabled=True, peak_tension=peak, hold_time=3.0, **kw)
+    """The test at one level, ``peak`` (N), with a 3 s hold (no ladder unless asked)."""
+    return TugConfig(enabled=True, peak_tension=peak, hold_time=3.0,
+                     **{"ladder_levels": 0, **kw})
 
 
 @pytest.fixture(scope="module")
@@ -101,8 +103,6 @@ def test_held_and_false_capture(mass_min):
 
 def test_tug_refusals():
     """Each bad setting is refused naming its field and what is allowed."""
-    with pytest.raises(ConfigError, match="peak_tension"):
-        SimConfig(tether_order="chain", tug=TugConfig(enabled=True))
     with pytest.raises(ConfigError, match="tether_order"):
         SimConfig(tug=_tug())
     with pytest.raises(ConfigError, match="integrator"):
@@ -164,3 +164,115 @@ def test_confusion_counts_false_and_missed_captures():
     assert c.hold_share == pytest.approx(1 / 3) and c.over_breaking == 1
     assert c.false_reasons == {"x": 2} and c.slid_median_lost == 1.0
     assert "| cell | 6 | 3 | 2 | 1 | **2** | 1 | 1 | 1 |" in confusion_table([c])
+
+
+def _at_required_pull(tug: dict) -> dict:
+    """A verdict's measures at the required pull (without the ladder above it)."""
+    return {k: v for k, v in tug.items() if k not in ("holding_force", "ladder")}
+
+
+def test_ladder_keeps_the_single_level_verdict(mass_min):
+    """With the holding-force ladder on, the verdict and every measure at the required
+    pull are those of a single-level test at that pull, bit for bit (the ladder only
+    follows it); the holding force is the largest level held, each level the last's
+    times the ratio, and a lost capture climbs no ladder."""
+    pull = 0.05 * 8300.0
+    single = SimConfig(**SHORT, tug=_tug(pull))
+    ladder = SimConfig(**SHORT, tug=_tug(pull, ladder_levels=3))
+    a = run_episode(mass_min, None, single, record_trace=False)
+    b = run_episode(mass_min, None, ladder, record_trace=False)
+    assert a.tug["held"] and a.tug["holding_force"] == pull and a.tug["ladder"] == []
+    assert _at_required_pull(b.tug) == _at_required_pull(a.tug)
+    assert (b.success, b.settled_cqi, b.completion_time) == (a.success, a.settled_cqi,
+                                                              a.completion_time)
+    levels = [lv["force"] for lv in b.tug["ladder"]]
+    assert levels == [pull * 2.0 ** k for k in range(1, len(levels) + 1)] and levels
+    held = [lv["force"] for lv in b.tug["ladder"] if lv["held"]]
+    assert b.tug["holding_force"] == (held[-1] if held else pull)
+    # a level after a lost one is never tried: the levels are held up to the first lost
+    flags = [lv["held"] for lv in b.tug["ladder"]]
+    assert flags == sorted(flags, reverse=True) and flags.count(False) <= 1
+    assert b.steps > a.steps
+    lost_design = dataclasses.replace(mass_min, d_c=-2.5, V_e=(3.5, 3.5, 5.0))
+    lost = run_episode(lost_design, None, SimConfig(**SHORT, tug=_tug(4000.0, ladder_levels=3)),
+                       record_trace=False)
+    assert not lost.tug["held"] and lost.tug["holding_force"] == 0.0 and lost.tug["ladder"] == []
+
+
+def test_ladder_stops_below_the_breaking_load():
+    """The ladder's levels never exceed the tether's breaking load."""
+    from tethernet_ros.core.tug import pull_ladder
+
+    tug = TugConfig(enabled=True, ladder_levels=10, ladder_ratio=2.0)
+    limit = breaking_load(tug, 0.002)
+    levels = pull_ladder(tug, 415.0, 0.002)
+    assert levels == tuple(415.0 * 2.0 ** k for k in range(1, 7))     # 26.56 kN < 41.5 kN
+    assert max(levels) <= limit < 2.0 * max(levels)
+    assert pull_ladder(dataclasses.replace(tug, ladder_levels=0), 415.0, 0.002) == ()
+
+
+def test_required_pull_is_the_towing_acceleration_times_the_target_mass(mass_min):
+    """criterion 'held' turns the test on with the straight tether; its pull is
+    tow_acceleration times the episode's target mass (the drawn one under mass noise),
+    and a thrust given directly (peak_tension, --tug N) stands for it."""
+    from tethernet_ros.core.noise import NoiseModel
+
+    cfg = SimConfig.from_dict({"criterion": "held"})
+    assert cfg.tug.enabled and cfg.tether_order == "chain" and cfg.tug.tow_acceleration == 0.05
+    sc = scenario_for(mass_min, None, cfg)
+    m_t = 1.0 / float(sc.target_body.inv_mass)
+    assert m_t == 8300.0 and sc.tug_pull == 0.05 * m_t
+    sample = NoiseModel(sigma_target_mass=0.05).sample(3)
+    drawn = scenario_for(mass_min, sample, cfg)
+    m_drawn = 1.0 / float(drawn.target_body.inv_mass)
+    assert m_drawn != m_t and drawn.tug_pull == 0.05 * m_drawn
+    given = SimConfig.from_dict({"criterion": "held", "tug": {"peak_tension": 400.0}})
+    assert scenario_for(mass_min, None, given).tug_pull == 400.0
+    with pytest.raises(ConfigError, match="criterion"):
+        SimConfig(criterion="held")                    # built directly, the test off
+
+
+def test_held_criterion_judges_by_the_tug(mass_min):
+    """Under criterion 'held' success is the source's success and the tug holding at the
+    required pull; the tug runs only on the source's successes; the result records the
+    criterion."""
+    short = dict(SHORT, tug={"hold_time": 3.0, "ladder_levels": 0})
+    held = run_episode(mass_min, None, SimConfig.from_dict({**short, "criterion": "held"}),
+                       record_trace=False)
+    assert held.success and held.tug["held"] and held.criterion == "held"
+    assert held.tug["peak_force"] == 415.0
+    # the false capture: the source says success, the tug pulls the net off
+    lost_design = dataclasses.replace(mass_min, d_c=-2.5, V_e=(3.5, 3.5, 5.0))
+    pulled = {**short, "criterion": "held",
+              "tug": {**short["tug"], "tow_acceleration": 4000.0 / 8300.0}}
+    lost = run_episode(lost_design, None, SimConfig.from_dict(pulled), record_trace=False)
+    assert lost.settled_cqi <= 2.0 and lost.locked_pairs >= 10       # the source's success
+    assert not lost.success and lost.failure_reason.startswith("not held under the required pull")
+    assert "did not follow" in lost.failure_reason
+    # a source failure is not pulled (the same settled state, a stricter CQI threshold)
+    strict = SimConfig.from_dict({**short, "criterion": "held", "success_cqi": 0.01})
+    failed = run_episode(mass_min, None, strict, record_trace=False)
+    assert not failed.success and failed.tug is None and "CQI" in failed.failure_reason
+    assert failed.steps < held.steps
+    source = run_episode(mass_min, None, SimConfig(**SHORT), record_trace=False)
+    assert source.criterion == "source" and source.tug is None
+    assert (failed.settled_cqi, failed.locked_pairs) == (held.settled_cqi, held.locked_pairs)
+
+
+@pytest.mark.parametrize("value", [-0.05, 0.0, float("nan"), float("inf")])
+def test_bad_tow_acceleration_is_refused_naming_it(value):
+    with pytest.raises(TugError, match=r"tug field 'tow_acceleration': got .*; must be an "
+                                       r"acceleration in \[1e-4, 10\] m/s\^2"):
+        TugConfig(tow_acceleration=value)
+    with pytest.raises(ConfigError, match="tug field 'tow_acceleration'"):
+        SimConfig.from_dict({"criterion": "held", "tug": {"tow_acceleration": value}})
+
+
+def test_a_pull_above_the_breaking_load_and_an_unknown_criterion_are_refused(mass_min):
+    cfg = SimConfig.from_dict({"criterion": "held", "tug": {"tow_acceleration": 6.0}})
+    with pytest.raises(TugError, match=r"tug field 'tow_acceleration': got 6 m/s\^2, a pull of "
+                                       r"4.98e\+04 N .* must be at most 4.996 m/s\^2"):
+        scenario_for(mass_min, None, cfg)
+    with pytest.raises(ConfigError, match="config field 'criterion': got 'tug'; must be one of "
+                                          "'source', 'held'"):
+        SimConfig.from_dict({"criterion": "tug"})

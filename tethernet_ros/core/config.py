@@ -78,6 +78,7 @@ _CHOICES = {
     "integrator": ("explicit", "implicit"),
     "implicit_impacts": ("rebound", "inelastic"),
     "tether_order": ("reversed", "chain"),
+    "criterion": ("source", "held"),
 }
 
 
@@ -106,6 +107,9 @@ class SimConfig:
     launch point.
     Tug test (``tug``, off by default): after the settle time the chaser pulls the
     tether and the capture holds or not (core/tug.py, docs/model.md §17).
+    criterion: what ``success`` means: 'source' (default), the source's settled CQI at most
+    success_cqi and at least success_locked_pairs locked; 'held', that and the tug test
+    holding the required pull (it turns the tug test on; ``with_criterion``).
     Output: metric_rate (Hz) of the CQI / n_L trace, state_rate (Hz) of node positions.
     max_speed (m/s): any body faster than this marks the episode as diverged.
     Success: settled CQI <= success_cqi and n_L >= success_locked_pairs.
@@ -195,6 +199,7 @@ class SimConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     launch: LaunchConfig = field(default_factory=LaunchConfig)
     tug: TugConfig = field(default_factory=TugConfig)
+    criterion: str = "source"
 
     def __post_init__(self):
         declared_floats(self)
@@ -228,6 +233,10 @@ class SimConfig:
         if not isinstance(self.early_call, bool):
             raise ConfigError(f"config field 'early_call': got {self.early_call!r}; must be "
                               "true or false")
+        if self.criterion == "held" and not self.tug.enabled:
+            raise ConfigError("config field 'criterion': 'held' needs the tug test on "
+                              "(tug.enabled true; a config file's or a flag's criterion: held "
+                              "turns it on, docs/model.md §17)")
         if self.tug.enabled:
             self._check_tug()
         for name in ("dt", "implicit_dt"):
@@ -244,10 +253,6 @@ class SimConfig:
         if self.integrator != "implicit":
             raise ConfigError("config field 'tug.enabled': the tug test needs the implicit "
                               f"method (integrator 'implicit'); got integrator {self.integrator!r}")
-        if not self.tug.peak_tension > 0:
-            raise ConfigError("tug field 'peak_tension': got 0; must be a force > 0 N when the "
-                              "tug test is on (it has no default: no source at hand gives a "
-                              "removal tug's thrust; docs/model.md §17)")
         if self.early_call:
             raise ConfigError("config field 'early_call': the tug test starts from the "
                               "settled state at the end of the settle time; leave early_call "
@@ -296,7 +301,7 @@ class SimConfig:
         for k in data:
             if k not in names:
                 raise ConfigError(f"config field '{k}': unknown; allowed fields are {sorted(names)}")
-        data = dict(data)
+        data = with_criterion(data)
         for name, ncls in _NESTED.items():
             if name in data and isinstance(data[name], dict):
                 data[name] = _nested(name, ncls, data[name])
@@ -305,6 +310,23 @@ class SimConfig:
         if preset is not None:
             return cls.preset(preset, **data)
         return cls(**data)
+
+
+def with_criterion(data: dict) -> dict:
+    """A configuration mapping with what its ``criterion`` needs: 'held' turns the tug test
+    on (``tug.enabled``) and, unless the mapping sets it, the straight tether
+    (``tether_order: chain``), as ``--tug`` does.  The one home of this rule (config files,
+    flags, ROS requests)."""
+    data = dict(data)
+    if data.get("criterion") != "held":
+        return data
+    tug = data.get("tug", {})
+    if isinstance(tug, TugConfig):
+        tug = tug.to_dict()
+    if isinstance(tug, dict):
+        data["tug"] = {**tug, "enabled": True}
+    data.setdefault("tether_order", "chain")
+    return data
 
 
 def _nested(name: str, cls, values: dict):

@@ -122,12 +122,14 @@ class CaptureSimulation:
         if not self.closing_active or self.tug is None:
             return False
         if not self.tug.started:
-            self.settled = (self.cqi(), self.locked_pairs)
+            terms, pairs = self.cqi(), self.locked_pairs
+            self.settled = (terms, pairs)
+            if self.cfg.criterion == "held" and not capture_verdict(
+                    terms.cqi, pairs, self.cfg.success_cqi, self.cfg.success_locked_pairs)[0]:
+                return False        # criterion 'held': the tug tests the source's successes only
             self.tug.start()
             return True
-        if self.tug.outcome is None:
-            return self.tug.advance_phase()
-        return False
+        return self.tug.advance_phase()
 
     @property
     def launched(self) -> bool:
@@ -260,7 +262,7 @@ class EpisodeTrace:
 RESULT_FIELDS: tuple[str, ...] = ("success", "settled_cqi", "locked_pairs", "closing_time",
                                   "completion_time", "mass", "failure_reason", "wall_time",
                                   "seed", "steps", "max_penetration", "settled_terms",
-                                  "launch_time", "tug")
+                                  "launch_time", "tug", "criterion")
 
 
 @dataclass
@@ -282,6 +284,9 @@ class EpisodeResult:
     settled_terms: dict | None = None
     launch_time: float = 0.0
     tug: dict | None = None
+    #: the success criterion that judged ``success`` (config.py: 'source', the settled CQI
+    #: and locked pairs; 'held', those and the tug test at the required pull)
+    criterion: str = "source"
     trace: EpisodeTrace | None = None
 
     def to_dict(self, with_trace: bool = False) -> dict:
@@ -352,7 +357,7 @@ def after_stop(sim: CaptureSimulation, recorder: EpisodeRecorder) -> tuple[bool,
     reason = sim.divergence()
     if reason:
         if sim.settled is not None:          # during the tug test: the capture's verdict stands
-            sim.tug.judge(f"the test ended early: {reason}")
+            sim.tug.end_early(f"the test ended early: {reason}")
             return True, ""
         return True, reason
     recorder.sample(sim.step)
@@ -396,6 +401,8 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         settled = terms.to_dict()
         cqi_val = terms.cqi
         success, reason = capture_verdict(cqi_val, n_l, cfg.success_cqi, cfg.success_locked_pairs)
+        if success and cfg.criterion == "held":
+            success, reason = held_verdict(sim)
         # T: the settle time after closing starts (docs/model.md §7), also when the early
         # call read the state sooner
         completion = (sim.launch_step + sim.closing_step + sim.settle_steps) * sim.dt
@@ -405,8 +412,19 @@ def episode_result(sim: CaptureSimulation, reason: str = "", wall_time: float = 
         completion_time=completion, mass=mass, failure_reason=reason,
         wall_time=wall_time, seed=None, steps=sim.step,
         max_penetration=sim.max_penetration, settled_terms=settled,
-        launch_time=sim.launch_time, trace=trace,
+        launch_time=sim.launch_time, trace=trace, criterion=cfg.criterion,
         tug=None if sim.tug is None or sim.tug.outcome is None else sim.tug.outcome.to_dict())
+
+
+def held_verdict(sim: CaptureSimulation) -> tuple[bool, str]:
+    """Criterion 'held', for a capture the source's criterion calls a success: (whether the
+    tug test held it at the required pull, why not).  The one home of this rule."""
+    out = None if sim.tug is None else sim.tug.outcome
+    if out is None:
+        return False, "not held: the tug test did not run"
+    if out.held:
+        return True, ""
+    return False, f"not held under the required pull {out.peak_force:.4g} N: {out.reason}"
 
 
 def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,

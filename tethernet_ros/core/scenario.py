@@ -26,7 +26,7 @@ from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
 from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses, other_threads,
                      stowed_state, thread_damping)
 from .noise import NoiseSample, check_orientation_axis, corner_velocities
-from .tug import tug_params
+from .tug import pull_ladder, required_pull, tug_params
 from .shapes import Shape, target_shape
 
 
@@ -190,6 +190,10 @@ class Scenario:
     launch: kn.LaunchModel = field(default_factory=immediate_launch)
     sensor_seed: int = 0
     broadphase: str = "on"
+    #: the tug test's required pull (N) and the ladder's pulls above it (``core.tug``;
+    #: 0 and () when the test is off)
+    tug_pull: float = 0.0
+    tug_ladder: tuple = ()
     _kernel: tuple | None = field(default=None, repr=False, compare=False)
     lane: int = field(default=0, repr=False, compare=False)
 
@@ -335,7 +339,10 @@ def build_scenario(design: Design, actions: Actions, world: World,
     _, sc.stable_step = kn.stable_step(pairs, k_all, active_all, w, nb, c=c_all,
                                        k_contact=k_contact, c_contact=c_contact)
     sc.dt = cfg.step_for(sc.stable_step)
-    sc.set_params(dt=sc.dt, **tug_params(cfg.tug, th.tether_radius))
+    sc.set_params(dt=sc.dt, **tug_params(cfg.tug))
+    if cfg.tug.enabled:
+        sc.tug_pull = required_pull(cfg.tug, tgt_mass, th.tether_radius)
+        sc.tug_ladder = pull_ladder(cfg.tug, sc.tug_pull, th.tether_radius)
     sc.control = control_model(cfg.sensing, cfg.policy, sc.dt, design.d_L, lay, mass)
     sc.launch = launch_model(cfg.launch, sc.dt,
                              planned_window(design, cfg) if cfg.launch.built_in else None,

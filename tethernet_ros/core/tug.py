@@ -32,7 +32,7 @@ net still being taken up, or the kick a net gives as it slides off; docs/model.m
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -40,16 +40,20 @@ from .checks import check_numbers, declared_floats
 from .kernel.data import E_TUG_STEP, E_TUG_TAUT
 
 __all__ = ["TugConfig", "TugError", "TugOutcome", "TugTest", "breaking_load", "outcome_text",
-           "peak_force", "tug_params"]
+           "pull_ladder", "required_pull", "tug_params"]
 
 #: (low, high, words) of the numeric settings
 _LIMITS = {
-    "peak_tension": (0.0, 1e7, "a force in [0, 1e7] N, and > 0 when the test is on"),
+    "peak_tension": (0.0, 1e7, "a force in [0, 1e7] N (0: tow_acceleration times the "
+                                "target's mass)"),
+    "tow_acceleration": (1e-4, 10.0, "an acceleration in [1e-4, 10] m/s^2"),
     "tether_strength": (1e8, 1e10, "a tensile strength in [1e8, 1e10] Pa"),
     "hold_time": (0.1, 600.0, "a time in [0.1, 600] s"),
     "creep_speed": (0.001, 10.0, "a speed in [0.001, 10] m/s"),
     "take_up_time": (0.1, 3600.0, "a time in [0.1, 3600] s"),
     "max_slid_share": (0.0, 1.0, "a share in [0, 1]"),
+    "ladder_levels": (0, 20, "a whole number of levels in [0, 20]"),
+    "ladder_ratio": (1.05, 10.0, "a ratio in [1.05, 10]"),
 }
 
 
@@ -61,30 +65,42 @@ class TugError(ValueError):
 class TugConfig:
     """The tug test's settings (docs/model.md §17 gives each one's source).
 
-    enabled: run the test after the settle time (default off); peak_tension (N): the
-    thrust (no default: it must be given when the test is on, and at
-    most the main tether's breaking load); tether_strength (Pa):
+    enabled: run the test after the settle time (default off; ``criterion: held`` turns it
+    on).  The required pull (N): ``peak_tension`` when given (> 0, a thrust given
+    directly: ``--tug N``), else ``tow_acceleration`` (m/s^2, default 0.05: a stated
+    requirement, not a sourced one, about 180 m/s of delta-v per hour of towing) times the
+    episode's target mass; at most the main tether's breaking load.  tether_strength (Pa):
     the tether's tensile strength, default 3.3e9 Pa, the lower end of 3.3-3.9 GPa for
     Dyneema SK75/SK78 fibre (DSM fact sheet CIS YA100, 2010; a braided rope keeps only part
     of its fibre's strength, so this bounds the rope's strength from above); hold_time (s),
     creep_speed (m/s: the chaser's largest speed away from the target while it takes up
     the slack), take_up_time (s: the longest that may take): the test's protocol;
-    max_slid_share: the verdict's threshold (the protocol's choices, not physical
-    constants; docs/model.md §17)."""
+    max_slid_share: the verdict's threshold; ladder_levels, ladder_ratio: after a capture
+    held the required pull, the pull is raised by ladder_ratio and held hold_time again, up
+    to ladder_levels times, below the breaking load, until it is lost: the largest pull
+    held is the capture's holding force (the protocol's choices, not physical constants;
+    docs/model.md §17)."""
 
     enabled: bool = False
     peak_tension: float = 0.0
+    tow_acceleration: float = 0.05
     tether_strength: float = 3.3e9
     hold_time: float = 10.0
     creep_speed: float = 0.2
     take_up_time: float = 60.0
     max_slid_share: float = 0.5
+    ladder_levels: int = 3
+    ladder_ratio: float = 2.0
 
     def __post_init__(self):
         declared_floats(self)
         if not isinstance(self.enabled, bool):
             raise TugError(f"tug field 'enabled': got {self.enabled!r}; must be true or false")
         check_numbers("tug", self, _LIMITS, TugError)
+        if int(self.ladder_levels) != self.ladder_levels:
+            raise TugError(f"tug field 'ladder_levels': got {self.ladder_levels!r}; must be "
+                           f"{_LIMITS['ladder_levels'][2]}")
+        object.__setattr__(self, "ladder_levels", int(self.ladder_levels))
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -96,33 +112,58 @@ def breaking_load(tug: TugConfig, tether_radius: float) -> float:
     return tug.tether_strength * math.pi * tether_radius * tether_radius
 
 
-def peak_force(tug: TugConfig, tether_radius: float) -> float:
-    """The test's peak thrust (N): ``peak_tension``; TugError naming it when it exceeds the
-    main tether's breaking load (a thrust the tether cannot carry)."""
+def required_pull(tug: TugConfig, target_mass: float, tether_radius: float) -> float:
+    """The pull (N) a capture must hold: ``peak_tension`` when given, else
+    ``tow_acceleration`` times ``target_mass`` (kg); TugError naming the field that set it
+    when it exceeds the main tether's breaking load (a pull the tether cannot carry)."""
     limit = breaking_load(tug, tether_radius)
-    if tug.peak_tension > limit:
-        raise TugError(f"tug field 'peak_tension': got {tug.peak_tension:g} N; must be at most "
-                       f"the main tether's breaking load {limit:.4g} N (tether_strength "
-                       f"{tug.tether_strength:g} Pa times pi r^2, r = {tether_radius:g} m)")
-    return tug.peak_tension
+    where = (f"tether_strength {tug.tether_strength:g} Pa times pi r^2, r = "
+             f"{tether_radius:g} m")
+    if tug.peak_tension > 0:
+        if tug.peak_tension > limit:
+            raise TugError(f"tug field 'peak_tension': got {tug.peak_tension:g} N; must be at "
+                           f"most the main tether's breaking load {limit:.4g} N ({where})")
+        return float(tug.peak_tension)
+    pull = tug.tow_acceleration * target_mass
+    if pull > limit:
+        raise TugError(f"tug field 'tow_acceleration': got {tug.tow_acceleration:g} m/s^2, a "
+                       f"pull of {pull:.4g} N on the {target_mass:g} kg target; must be at most "
+                       f"{limit / target_mass:.4g} m/s^2, the main tether's breaking load "
+                       f"{limit:.4g} N ({where}) over the target's mass")
+    return float(pull)
 
 
-def tug_params(tug: TugConfig, tether_radius: float) -> dict:
-    """The kernel's tug parameters (``kernel.Params`` tug_force (N), tug_creep (m/s)); zero
-    force when the test is off."""
-    if not tug.enabled:
-        return {"tug_force": 0.0, "tug_creep": 0.0}
-    return {"tug_force": float(peak_force(tug, tether_radius)),
-            "tug_creep": float(tug.creep_speed)}
+def pull_ladder(tug: TugConfig, pull: float, tether_radius: float) -> tuple[float, ...]:
+    """The pulls (N) of the holding-force ladder above the required ``pull``: pull times
+    ladder_ratio^k, k = 1..ladder_levels, those at most the breaking load."""
+    limit = breaking_load(tug, tether_radius)
+    levels = []
+    force = pull
+    for _ in range(tug.ladder_levels):
+        force = force * tug.ladder_ratio
+        if force > limit:
+            break
+        levels.append(float(force))
+    return tuple(levels)
+
+
+def tug_params(tug: TugConfig) -> dict:
+    """The kernel's tug parameter (``kernel.Params`` tug_creep, m/s); zero when the test
+    is off.  The thrust is per lane (``Data.tug_force``), set by :class:`TugTest`."""
+    return {"tug_creep": float(tug.creep_speed) if tug.enabled else 0.0}
 
 
 @dataclass
 class TugOutcome:
     """The test's verdict and its measures: held (bool), reason ('' when held), peak
     tether tension (N), largest slip (m), the net's offset (m, its centre of mass from the
-    target's at the end), follow ratio, share slid off, closed pairs, the peak thrust (N),
-    the time the slack took to take up (s; NaN: it never was) and the test's duration
-    (s)."""
+    target's at the end), follow ratio, share slid off, closed pairs, the peak thrust (N:
+    the required pull), the time the slack took to take up (s; NaN: it never was) and the
+    test's duration (s), all at the required pull; then the holding force (N: the largest
+    pull held, the required pull or a level of the ladder above it; 0 when the required
+    pull was not held) and the ladder's levels above the required pull, each a mapping of
+    its pull (N), held, reason and peak tether tension (N) (``ladder``: the levels tested,
+    up to the first lost)."""
 
     held: bool
     reason: str
@@ -135,6 +176,8 @@ class TugOutcome:
     peak_force: float
     take_up_time: float
     duration: float
+    holding_force: float = 0.0
+    ladder: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -154,7 +197,13 @@ def outcome_text(tug: dict) -> str:
             f"{num(tug['largest_slip'], ' m', 2)}, net offset {num(tug['net_offset'], ' m', 2)}, "
             f"follow ratio {num(tug['follow_ratio'], '', 2)}, slid off "
             f"{num(tug['slid_share'] * 100, ' %', 1)}, closed pairs {tug['closed_pairs']})")
-    return text + (f": {tug['reason']}" if tug["reason"] else "")
+    text += f": {tug['reason']}" if tug["reason"] else ""
+    ladder = tug.get("ladder") or []
+    if tug["held"] and ladder:
+        steps = ", ".join(f"{lv['force']:g} N {'held' if lv['held'] else 'lost'}"
+                          for lv in ladder)
+        text += f"; holding force {tug.get('holding_force', 0.0):g} N (ladder: {steps})"
+    return text
 
 
 class TugTest:
@@ -162,15 +211,23 @@ class TugTest:
     at the end of the settle time (:meth:`start`); taking up the slack ends when the kernel
     marks the tether taut; the hold's first half follows, then its second (the follow
     ratio's window, :meth:`start_window`); the host judges it at its end (:meth:`judge`),
-    reading the episode's arrays.  The kernel applies the thrust and keeps the peak
-    tension."""
+    reading the episode's arrays: the verdict at the required pull.  A capture that held
+    then climbs the ladder (:func:`pull_ladder`): each level holds its pull for hold_time
+    and is judged by the same measures, until one is lost or none is left; the largest pull
+    held is the holding force.  Everything up to the verdict at the required pull is the
+    single-level test's, step for step.  The kernel applies the thrust the test sets for
+    the lane (``Data.tug_force``) and keeps the peak tension."""
 
     def __init__(self, sim, tug: TugConfig):
         self.sim = sim
         self.cfg = tug
-        #: the thrust (N): the kernel's, checked against the breaking load when the
-        #: scenario was built (:func:`tug_params`)
-        self.force = float(sim.s.params.tug_force)
+        #: the required pull (N) and the ladder's pulls above it, computed and checked
+        #: against the breaking load when the scenario was built (:func:`required_pull`)
+        self.force = float(sim.s.tug_pull)
+        self.ladder = tuple(sim.s.tug_ladder)
+        #: the ladder's current level (index into ``ladder``) and the step it began
+        self.level: int | None = None
+        self.level_start_step: int | None = None
         dt = sim.dt
         self.hold_steps = max(1, int(round(tug.hold_time / dt)))
         self.take_up_steps = max(1, int(round(tug.take_up_time / dt)))
@@ -202,6 +259,8 @@ class TugTest:
         """The step at which the current phase ends: taking up the slack (at most
         take_up_time; it ends at the first look after the tether went taut), the hold's
         first half, its second half (the follow ratio's window)."""
+        if self.level is not None:
+            return self.level_start_step + self.hold_steps
         if self.hold_start_step is None:
             return (self.start_step + self.take_up_steps if self.taut_step is None
                     else self.sim.step)
@@ -216,6 +275,7 @@ class TugTest:
         self.start_step = sim.step
         sim.s.events[E_TUG_STEP] = sim.step
         sim.data.tug_peak[sim.s.lane] = 0.0
+        sim.data.tug_force[sim.s.lane] = self.force
         #: the system's linear momentum (kg m/s) and the pull's direction when it began
         self.start_momentum = sim.linear_momentum().copy()
         self.start_direction = self._pull_direction()
@@ -236,6 +296,10 @@ class TugTest:
     def advance_phase(self) -> bool:
         """At the end of a phase: begin the next (True: the test goes on) or judge the test
         (False: it has ended)."""
+        if self.level is not None:
+            return self._judge_level()
+        if self.outcome is not None:
+            return False
         if self.hold_start_step is None:
             if self.taut_step is None:
                 self.judge(f"the target did not follow: the tether never carried half the "
@@ -248,12 +312,52 @@ class TugTest:
             self.start_window()
             return True
         self.judge()
+        return self._next_level()
+
+    def end_early(self, reason: str) -> None:
+        """The simulation ended the test (e.g. diverged): the verdict at the required pull
+        when it was not yet judged, else the ladder's current level is lost."""
+        if self.outcome is None:
+            self.judge(reason)
+        elif self.level is not None:
+            self._record_level(False, reason)
+            self.level = None
+
+    # -- the ladder ----------------------------------------------------------------------
+    def _next_level(self) -> bool:
+        """After a level held (or the required pull): raise the pull to the ladder's next
+        level (True) or end the test (False: it was lost, or no level is left)."""
+        out = self.outcome
+        nxt = 0 if self.level is None else self.level + 1
+        if not out.held or nxt >= len(self.ladder):
+            self.level = None
+            return False
+        sim = self.sim
+        self.level = nxt
+        self.level_start_step = sim.step
+        sim.data.tug_force[sim.s.lane] = self.ladder[nxt]
+        sim.data.tug_peak[sim.s.lane] = 0.0
+        return True
+
+    def _judge_level(self) -> bool:
+        why, _ = self._verdict()
+        self._record_level(not why, why)
+        return self._next_level() if not why else self._stop_ladder()
+
+    def _stop_ladder(self) -> bool:
+        self.level = None
         return False
 
-    def judge(self, reason: str = "", measured: bool = False) -> TugOutcome:
-        """The verdict at the simulation's current step (``reason``: why the test ended
-        early, e.g. a divergence: then the net did not hold; with ``measured`` the reason
-        stands only if the measures find nothing else)."""
+    def _record_level(self, held: bool, reason: str) -> None:
+        sim = self.sim
+        force = self.ladder[self.level]
+        self.outcome.ladder.append({"force": float(force), "held": bool(held), "reason": reason,
+                                    "peak_tension": float(sim.data.tug_peak[sim.s.lane])})
+        if held:
+            self.outcome.holding_force = float(force)
+
+    def _verdict(self) -> tuple[str, dict]:
+        """('' when held, else why not; the measures) at the simulation's current step."""
         sim = self.sim
         cfg = self.cfg
         dist = self._surface_distances()
@@ -264,16 +368,11 @@ class TugTest:
         near_mass = float(masses[self._near0].sum())
         slid = self._near0 & (dist > mesh)
         slid_share = float(masses[slid].sum()) / near_mass if near_mass > 0 else 1.0
-        follow = math.nan
-        if self._pull is not None:
-            moved_system = float((self._system_com() - self._system_hold0) @ self._pull)
-            moved_target = float((sim.s.target_body.pos - self._target_hold0) @ self._pull)
-            follow = moved_target / moved_system if moved_system > 0 else math.nan
         closed = self._closed_pairs()
         offset = float(np.linalg.norm(sim.net_centre_of_mass() - sim.s.target_body.pos))
         reach = float(sim.s.target.bounding_radius)
-        why = "" if measured else reason
-        if not why and not offset <= reach:
+        why = ""
+        if not offset <= reach:
             why = (f"the target did not follow: the net's centre of mass ended {offset:.3g} m "
                    f"from the target's (at most its bounding radius {reach:.3g} m)")
         if not why and closed < sim.cfg.success_locked_pairs:
@@ -282,17 +381,32 @@ class TugTest:
         if not why and slid_share > cfg.max_slid_share:
             why = (f"the net slid off: {slid_share:.1%} of the net's mass on the target left it "
                    f"(at most {cfg.max_slid_share:.0%})")
-        if not why:
-            why = reason
+        return why, {"largest_slip": largest_slip, "slid_share": slid_share,
+                     "closed_pairs": closed, "net_offset": offset}
+
+    def judge(self, reason: str = "", measured: bool = False) -> TugOutcome:
+        """The verdict at the required pull, at the simulation's current step (``reason``:
+        why the test ended early, e.g. a divergence: then the net did not hold; with
+        ``measured`` the reason stands only if the measures find nothing else)."""
+        sim = self.sim
+        measured_why, m = self._verdict()
+        why = "" if measured else reason
+        why = why or measured_why or reason
+        follow = math.nan
+        if self._pull is not None:
+            moved_system = float((self._system_com() - self._system_hold0) @ self._pull)
+            moved_target = float((sim.s.target_body.pos - self._target_hold0) @ self._pull)
+            follow = moved_target / moved_system if moved_system > 0 else math.nan
         self.outcome = TugOutcome(
             held=not why, reason=why,
-            peak_tension=float(sim.data.tug_peak[sim.s.lane]), largest_slip=largest_slip,
-            net_offset=offset,
-            follow_ratio=follow, slid_share=slid_share, closed_pairs=closed,
+            peak_tension=float(sim.data.tug_peak[sim.s.lane]),
+            largest_slip=m["largest_slip"], net_offset=m["net_offset"],
+            follow_ratio=follow, slid_share=m["slid_share"], closed_pairs=m["closed_pairs"],
             peak_force=float(self.force),
             take_up_time=(math.nan if self.taut_step is None
                           else (self.taut_step - self.start_step) * sim.dt),
-            duration=(sim.step - self.start_step) * sim.dt)
+            duration=(sim.step - self.start_step) * sim.dt,
+            holding_force=0.0 if why else float(self.force))
         return self.outcome
 
     # -- measures ------------------------------------------------------------------------

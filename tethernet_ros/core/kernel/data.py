@@ -74,9 +74,11 @@ BroadData = namedtuple("BroadData", "point dist tests skips misses")
 #: (``sensing.SensorData``); policy: the closing policy's memory (``policy.PolicyData``);
 #: broad: the contacts' broad phase; tug_peak (K,): the largest tension (N) of a main-tether
 #: segment in any step since the tug test started, tug_impulse (3, K): the thrust's impulse
-#: on the chaser since then (N s) (``tug``).
+#: on the chaser since then (N s), tug_force (K,): the thrust (N) of the test's current
+#: level, set by the host (``core.tug``: the required pull, then a ladder above it; per
+#: lane, since it follows each episode's target mass) (``tug``).
 Data = namedtuple("Data", "bodies links ring target warm events close_threshold sensor policy "
-                          "contact_count max_penetration broad tug_peak tug_impulse")
+                          "contact_count max_penetration broad tug_peak tug_impulse tug_force")
 
 
 def new_events(closing_armed: bool = True, tether_locked: bool = False,
@@ -138,7 +140,7 @@ def one_lane(bodies, links, drawstring, target_body, close_threshold: float, eve
         broad=BroadData(point=np.zeros((n_bodies, 3, 1)), dist=np.zeros((n_bodies, 1)),
                         tests=np.zeros(1, dtype=np.int64), skips=np.zeros(1, dtype=np.int64),
                         misses=np.zeros(1, dtype=np.int64)),
-        tug_peak=np.zeros(1), tug_impulse=np.zeros((3, 1)))
+        tug_peak=np.zeros(1), tug_impulse=np.zeros((3, 1)), tug_force=np.zeros(1))
 
 
 def _map(data: Data, fn) -> Data:

@@ -20,14 +20,14 @@ from .broadphase import BROAD_ON
 #: zeta_thread, thread_damping (index into THREAD_DAMPING_MODELS), omega_1 (rad/s): for the
 #: tether segments made when the winch locks; lock_model: index into LOCK_MODELS;
 #: restitution: the implicit method's coefficient of restitution of a new impact (0: none);
-#: tug_force (N), tug_creep (m/s): the tug test's thrust on the chaser and the speed away
-#: from the target at which the chaser takes up the slack, until the tether carries half
-#: the thrust (``tug``; acting only once the host starts it, ``E_TUG_STEP``).
+#: tug_creep (m/s): the tug test's speed away from the target at which the chaser takes up
+#: the slack, until the tether carries half the thrust (``tug``; acting only once the host
+#: starts it, ``E_TUG_STEP``; the thrust itself is per lane, ``Data.tug_force``).
 Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
                               "contact_model omega_contact zeta_contact "
                               "tether_lin_density tether_EA zeta_thread thread_damping omega_1 "
-                              "lock_model restitution tug_force tug_creep",
-                    defaults=(0.0, 0.0))
+                              "lock_model restitution tug_creep",
+                    defaults=(0.0,))
 
 #: Modelling choices held as small integers in Params (the index of the name).
 CONTACT_MODELS = ("frequency", "hertz")

@@ -1,5 +1,5 @@
 """The tug test inside a step (docs/model.md §17).  Once the host starts it
-(``data.E_TUG_STEP``), the chaser thrusts with ``Params.tug_force`` (N) away from the
+(``data.E_TUG_STEP``), the chaser thrusts with ``Data.tug_force`` (N) away from the
 target's centre of mass:
 
 - *taking up the slack*: until the tether first carries half the thrust
@@ -45,7 +45,7 @@ def tug_thrust(model, data, l, h):
                 + (v[c, 2, l] - tg.vel[2, l]) * uz)
         if away >= prm.tug_creep:
             return
-    p = h * prm.tug_force
+    p = h * data.tug_force[l]
     data.tug_impulse[0, l] += p * ux
     data.tug_impulse[1, l] += p * uy
     data.tug_impulse[2, l] += p * uz
@@ -69,5 +69,5 @@ def record_tether_tension(model, data, l, h):
         tension = -p[te.links[k], l] / h
         if tension > data.tug_peak[l]:
             data.tug_peak[l] = tension
-    if ev[E_TUG_TAUT, l] < 0 and data.tug_peak[l] >= 0.5 * model.params.tug_force:
+    if ev[E_TUG_TAUT, l] < 0 and data.tug_peak[l] >= 0.5 * data.tug_force[l]:
         ev[E_TUG_TAUT, l] = ev[E_STEP, l]
