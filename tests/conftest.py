@@ -67,6 +67,7 @@ SLOW = {
     "test_studies_summary.py::test_a_study_takes_its_finished_cells_from_the_summary": 34.0,
     "test_core_implicit.py::test_deployment_and_closing_time_agree_with_the_explicit_method[mass-min]": 12.2,
     "test_core_tug.py::test_batch_lanes_equal_single_runs_with_the_test": 18.5,
+    "test_core_tug.py::test_explicit_method_runs_the_test_and_conserves_momentum": 11.2,
 }
 
 

@@ -34,6 +34,9 @@ class StateMirror:
         # (never advanced: its launch is left to the states it loads, not waited for)
         mirror = config.replace(launch=replace(config.launch, kind=controller_policy("launch"))) \
             if config.launch.built_in else config
+        # states cannot be pulled: the verdict of states is the source's criterion's
+        # (the simulation's result carries the tug's; ros/results.py:compare_results)
+        mirror = mirror.replace(criterion="source")
         self.sim = CaptureSimulation(build_scenario(design, actions, world, mirror))
         # run_simulation tests for divergence at its clock's steps (and at the end step); a
         # verdict on divergence is taken at those steps only, as there

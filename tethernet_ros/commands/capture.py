@@ -82,7 +82,7 @@ def run(args) -> int:
     if args.fidelity != "reference":
         from ..core.fidelity import fidelity_text
 
-        print(f"  fidelity           {fidelity_text(args.fidelity)}: not a reference-"
+        print(f"  fidelity           {fidelity_text(args.fidelity, config)}: not a reference-"
               "fidelity result (docs/studies/step.md)")
     return 0
 
@@ -93,8 +93,11 @@ def fmt(v, unit="", digits=3):
 
 def summary_text(label, seed_label, r, wall, via, bag_path, png) -> str:
     verdict = "SUCCESS" if r.success else "FAILURE"
+    criterion = getattr(r, "criterion", "source") or "source"
+    judged = ("the source's criterion" if criterion == "source"
+              else "criterion held: the source's and the tug at the required pull")
     lines = [
-        f"capture of {label} ({seed_label}, via {via}): {verdict}",
+        f"capture of {label} ({seed_label}, via {via}): {verdict}  (by {judged})",
         f"  settled CQI        {fmt(r.settled_cqi)}   (success needs <= 2.0)",
         f"  locked pairs n_L   {r.locked_pairs} / 12   (success needs >= 10)",
         f"  closing time       {fmt(r.closing_time, ' s', 2)}",

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from optimizer.jsonio import json_clean
 
+from ..core.config import CRITERIA
 from ..core.design import REFERENCE_DESIGNS, Design, read_design_file
 from ..core.kernel.policy_table import choices_help, controller_policy, selectable
 from ..core.noise import NOISE_SOURCES, ORIENTATION_AXES, SCALE_RANGE, NoiseError, NoiseModel
@@ -38,7 +39,7 @@ SCENARIO_FLAGS = {
     "--target-attitude": ("target", "attitude_deg"),
     "--launch-policy": ("launch", "kind"), "--launch-max-wait": ("launch", "max_wait"),
     "--launch-max-tilt": ("launch", "max_tilt_deg"), "--launch-confirm": ("launch", "confirm_time"),
-    "--tug": ("tug", "peak_tension"),
+    "--tug": ("tug", "peak_tension"), "--tow-acceleration": ("tug", "tow_acceleration"),
 }
 
 
@@ -109,6 +110,15 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                         "a thrust of N newtons, and judge whether the net holds the target "
                         "(docs/model.md §17); sets tug: {enabled: true, peak_tension: N} and, "
                         "unless the config sets it, tether_order: chain")
+    g.add_argument("--tow-acceleration", type=float, default=None, metavar="M_S2",
+                   help="the tug test's required pull as a towing acceleration of the target "
+                        "(m/s^2, in [1e-4, 10]; default 0.05: 415 N on the Zenit-2): the pull "
+                        "is it times the target's mass (docs/model.md §17)")
+    g.add_argument("--criterion", choices=CRITERIA, default=None,
+                   help="what success means (docs/model.md §17): source, the source's settled "
+                        "CQI and locked pairs (default); held, that and the tug test holding "
+                        "the required pull (turns the tug test on, with tether_order: chain "
+                        "unless the config sets it)")
     g.add_argument("--net-point", choices=NET_POINTS, default=None,
                    help="the net's sensed reference point (default com)")
     g.add_argument("--sensing-rate", type=float, default=None, metavar="HZ",
@@ -254,6 +264,9 @@ def config_from_args(args, **overrides):
         where.update(flags)
     if getattr(args, "tug", None) is not None and "tether_order" not in data:
         data["tether_order"] = "chain"          # the tug test needs the straight tether
+    if getattr(args, "criterion", None) is not None:
+        data["criterion"] = args.criterion
+        where["criterion"] = "--criterion"
     data.update(overrides)
     try:
         return SimConfig.from_dict(data)
@@ -262,7 +275,7 @@ def config_from_args(args, **overrides):
     except ConfigError as exc:
         text = str(exc)
         for key, flag in where.items():
-            group, field = key.split(".")
+            group, field = key.split(".") if "." in key else ("config", key)
             if text.startswith(f"{group} field '{field}'") or \
                     (text.startswith(f"config field '{key}'")):
                 raise ConfigError(f"{flag}: {text}") from None

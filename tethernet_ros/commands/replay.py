@@ -53,7 +53,8 @@ def _result_dict(r) -> dict | None:
     return {"success": bool(r.success), "settled_cqi": float(r.settled_cqi),
             "locked_pairs": int(r.locked_pairs),
             "closing_time": None if ct is None or ct != ct or ct < 0 else float(ct),
-            "completion_time": float(r.completion_time), "failure_reason": r.failure_reason}
+            "completion_time": float(r.completion_time), "failure_reason": r.failure_reason,
+            "criterion": str(getattr(r, "criterion", "") or "source")}
 
 
 def replay(path) -> dict:
@@ -155,6 +156,9 @@ def replay(path) -> dict:
     # the tug test's verdict (docs/model.md §17) as the simulation recorded it; replay
     # recomputes the capture's verdict from the states, not the test's
     report["recorded_tug"] = conv.tug_from_msg(sim_results[-1]) if sim_results else None
+    # the criterion that judged the recorded result (the recomputed verdict is the
+    # source's: states cannot be pulled; they are compared by it, ros/results.py)
+    report["criterion"] = (report["recorded_result"] or {}).get("criterion", "source")
     report["recorded_verdict"] = _result_dict(verdicts[-1]) if verdicts else None
     for key, recs in (("result", sim_results), ("verdict", verdicts)):
         if recomputed is None or not recs:
@@ -283,7 +287,8 @@ def _fmt_result(r) -> str:
     verdict = "SUCCESS" if r["success"] else "FAILURE"
     cqi = "n/a" if r["settled_cqi"] != r["settled_cqi"] else f"{r['settled_cqi']:.6g}"
     text = f"{verdict}: settled CQI {cqi}, n_L {r['locked_pairs']}, T {r['completion_time']:.4f} s"
-    return text + (f" ({r['failure_reason']})" if r["failure_reason"] else "")
+    text += f" ({r['failure_reason']})" if r["failure_reason"] else ""
+    return text + f"  [criterion {r.get('criterion', 'source')}]"
 
 
 def run(args) -> int:

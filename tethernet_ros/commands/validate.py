@@ -184,7 +184,7 @@ def run(args) -> int:
           + (f" ({reused} samples read back from the results file)" if reused else ""))
     print("P*_s interval: Wilson 95 %; mean T over all samples (closing never triggered: T = horizon)")
     if args.fidelity != REFERENCE:
-        print(f"fidelity {fidelity_text(args.fidelity)}: not a reference-fidelity result "
+        print(f"fidelity {fidelity_text(args.fidelity, config)}: not a reference-fidelity result "
               "(docs/studies/step.md; docs/model.md, fidelities)")
     print("results file" + ("s" if len(files) > 1 else "") + ": " + ", ".join(files))
     for f in files:

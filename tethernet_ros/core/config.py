@@ -80,6 +80,8 @@ _CHOICES = {
     "tether_order": ("reversed", "chain"),
     "criterion": ("source", "held"),
 }
+#: the success criteria (``SimConfig.criterion``)
+CRITERIA = _CHOICES["criterion"]
 
 
 @dataclass(frozen=True)
@@ -250,9 +252,6 @@ class SimConfig:
     def _check_tug(self) -> None:
         """What the tug test needs of the rest of the configuration (ConfigError naming
         the field)."""
-        if self.integrator != "implicit":
-            raise ConfigError("config field 'tug.enabled': the tug test needs the implicit "
-                              f"method (integrator 'implicit'); got integrator {self.integrator!r}")
         if self.early_call:
             raise ConfigError("config field 'early_call': the tug test starts from the "
                               "settled state at the end of the settle time; leave early_call "

@@ -16,6 +16,11 @@ method's energy invariant is not checked at 2 ms, so exploration is not the defa
 claim rests on it: the optimiser may search with it, and races and validates at
 ``reference`` (docs/optimizer.md).
 
+With the tug test on (``criterion: held`` or ``--tug``) exploration leaves the early call
+off: the test starts from the state at the end of the settle time, and a capture called
+early would never be pulled.  Its 2 ms step under the tug is measured in
+docs/studies/tug-checks.md.
+
 Exploration is defined only relative to the configuration those studies measured: the
 implicit method (``integrator: implicit``) at the reference step (``dt: 0``,
 ``implicit_dt: 0.001`` s) and sweeps (``implicit_iterations: 4``); another is refused
@@ -70,7 +75,7 @@ def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> Si
     FidelityError when the name is unknown or ``config`` lacks a field value
     :data:`FIDELITY_REQUIRES` names (``field``: how the caller names the fidelity)."""
     check_fidelity(fidelity, field)
-    changes = FIDELITY_CHANGES[fidelity]
+    changes = _changes_for(fidelity, config)
     if not changes:
         return config
     for name, want in FIDELITY_REQUIRES[fidelity].items():
@@ -88,11 +93,20 @@ def at_fidelity(config: SimConfig, fidelity: str, field: str = "fidelity") -> Si
         raise FidelityError(f"{field} {fidelity!r}: {exc}") from None
 
 
-def fidelity_text(fidelity: str) -> str:
+def fidelity_text(fidelity: str, config: SimConfig | None = None) -> str:
     """The fidelity in words, e.g. 'exploration (implicit_dt = 0.002 s, implicit_iterations
-    = 8)'."""
-    changes = FIDELITY_CHANGES[check_fidelity(fidelity)]
+    = 8)'; for ``config`` when given (the tug test on: without the early call)."""
+    changes = _changes_for(check_fidelity(fidelity), config)
     return fidelity if not changes else f"{fidelity} ({_changes_text(changes)})"
+
+
+def _changes_for(fidelity: str, config: SimConfig | None) -> dict:
+    """What ``fidelity`` changes in ``config``: :data:`FIDELITY_CHANGES`, without the early
+    call when the tug test is on (the module's docstring)."""
+    changes = FIDELITY_CHANGES[fidelity]
+    if config is not None and config.tug.enabled:
+        changes = {k: v for k, v in changes.items() if k != "early_call"}
+    return changes
 
 
 def _changes_text(changes: dict) -> str:

@@ -103,6 +103,17 @@ def target_mass_properties(shape, world: World) -> tuple[float, np.ndarray, np.n
     return shape.mass * f, np.array(moments), np.array(world.target_com_offset, dtype=np.float64)
 
 
+def nominal_pull(design: Design, config: SimConfig) -> float:
+    """The tug test's required pull (N) on the nominal target of ``config`` (its
+    catalogue or file mass; ``tug.required_pull``), checked against the main tether's
+    breaking load before any episode runs: TugError naming the field that set it.  0 when
+    the test is off."""
+    if not config.tug.enabled:
+        return 0.0
+    radius = config.tether_radius if config.tether_radius > 0 else design.r_n
+    return required_pull(config.tug, target_shape(config.target).mass, radius)
+
+
 def launch_attitude(design: Design, sample: NoiseSample | None, config: SimConfig):
     """(attitude quaternion, world angular momentum (kg m^2/s), principal moments
     (kg m^2)) of the target at launch in one sample, as ``build_scenario`` sets them."""

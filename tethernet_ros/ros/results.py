@@ -11,19 +11,37 @@ class BagResultError(RuntimeError):
     """The episode's bag does not hold a usable, consistent result (one line)."""
 
 
+def source_verdict(r) -> tuple[bool, str]:
+    """(success, failure reason) of a result (core or message) by the source's criterion.
+    Under criterion 'held' the tug runs on the source's successes only, so a result whose
+    tug was tested was the source's success; any other is judged as the source judged it."""
+    if (getattr(r, "criterion", "") or "source") == "source":
+        return bool(r.success), r.failure_reason
+    tested = getattr(r, "tug_tested", None)
+    if tested is None:
+        tested = getattr(r, "tug", None) is not None
+    return (True, "") if tested else (bool(r.success), r.failure_reason)
+
+
 def compare_results(a, b) -> str:
     """'' if two results (core or message; closing_time NaN and -1 both mean 'never')
     agree exactly on success, settled CQI, n_L, closing time, T and failure reason; else
-    a one-line description of the first difference."""
+    a one-line description of the first difference.  Results judged by different criteria
+    (the simulation's 'held', the monitor's 'source': it judges states and cannot pull)
+    are compared by the source's criterion (:func:`source_verdict`)."""
     def ct(r):
         v = r.closing_time
         return math.nan if v is None or (isinstance(v, float) and not math.isnan(v) and v < 0) else v
-    for name, va, vb in (("success", a.success, b.success),
+    crit_a = getattr(a, "criterion", "") or "source"
+    crit_b = getattr(b, "criterion", "") or "source"
+    (sa, ra), (sb, rb) = ((a.success, a.failure_reason), (b.success, b.failure_reason)) \
+        if crit_a == crit_b else (source_verdict(a), source_verdict(b))
+    for name, va, vb in (("success", sa, sb),
                          ("settled_cqi", a.settled_cqi, b.settled_cqi),
                          ("locked_pairs", a.locked_pairs, b.locked_pairs),
                          ("closing_time", ct(a), ct(b)),
                          ("completion_time", a.completion_time, b.completion_time),
-                         ("failure_reason", a.failure_reason, b.failure_reason)):
+                         ("failure_reason", ra, rb)):
         if isinstance(va, float) or isinstance(vb, float):
             fa, fb = float(va), float(vb)
             if (math.isnan(fa) and math.isnan(fb)) or fa == fb:

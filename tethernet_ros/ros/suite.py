@@ -389,13 +389,15 @@ class RosSuite:
     # -- requests ------------------------------------------------------------------------
     def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None, tumble=None,
-                target: str = "", target_mass: float = 0.0, launch=None):
+                target: str = "", target_mass: float = 0.0, launch=None,
+                criterion: str = "", tow_acceleration: float = 0.0):
         """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
         episode (None: the suite's configuration's); ``target``: a catalogue name or mesh
         file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's);
         ``launch`` (a LaunchConfig): its launch policy, max_wait and max_tilt_deg (None: the
         suite's configuration's; its other settings must be the configuration's, which the
-        request cannot carry)."""
+        request cannot carry); ``criterion`` ('source' or 'held'; '' the configuration's) and
+        ``tow_acceleration`` (m/s^2; 0 the configuration's): docs/model.md §17."""
         from tethernet_msgs.srv import RunCapture
 
         req = RunCapture.Request()
@@ -414,6 +416,7 @@ class RosSuite:
             req.set_launch = True
             for name, field in conv.LAUNCH_REQUEST_FIELDS.items():
                 setattr(req, field, getattr(launch, name))
+        req.criterion, req.tow_acceleration = str(criterion), float(tow_acceleration)
         return req
 
     def _check_launch(self, launch) -> None:
@@ -503,9 +506,11 @@ class RosSuite:
     def capture(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None,
                 timeout: float = 900.0, tumble=None, target: str = "",
-                target_mass: float = 0.0, launch=None) -> tuple[EpisodeResult, str | None]:
+                target_mass: float = 0.0, launch=None, criterion: str = "",
+                tow_acceleration: float = 0.0) -> tuple[EpisodeResult, str | None]:
         resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble,
-                                      target, target_mass, launch), timeout)
+                                      target, target_mass, launch, criterion,
+                                      tow_acceleration), timeout)
         if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.status != SUCCEEDED:

@@ -22,6 +22,7 @@ from .model import LOCK_RATCHET
 from .rigid import integrate_target
 from .tether import pay_out_tether
 from .threads import gather_thread_forces, grid_thread_forces, link_forces
+from .tug import record_tether_force, tug_thrust
 
 
 @njit(cache=True, inline='always', error_model='numpy')
@@ -61,6 +62,10 @@ def advance_explicit(model, data, scr, n_steps):
                 closing_forces(model, data, scr, l)
             # 3. contact with the target
             fx, fy, fz, tx, ty, tz = contact_forces(model, data, scr, l)
+            # the tug test (once the host has started it): the tether's tension of this
+            # step's forces, and the thrust on the chaser
+            record_tether_force(model, data, scr, l)
+            tug_thrust(model, data, l, dt)
             # 4. integrate the bodies; the paid-out tether follows the winch and net centre
             integrate_bodies(data, scr, dt, l)
             if ev[E_TETHER_LOCKED, l] == 0:

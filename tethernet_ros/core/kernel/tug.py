@@ -59,7 +59,8 @@ def tug_thrust(model, data, l, h):
 def record_tether_tension(model, data, l, h):
     """Lane l, while the tug test runs: ``Data.tug_peak`` keeps the largest tension (N) of
     a main-tether segment (its step impulse over the step, the implicit method's), and the
-    first step with half the thrust is marked taut (``E_TUG_TAUT``)."""
+    first step with half the thrust is marked taut (``E_TUG_TAUT``).  The explicit
+    method's is :func:`record_tether_force`."""
     ev = data.events
     if ev[E_TUG_STEP, l] < 0:
         return
@@ -67,6 +68,25 @@ def record_tether_tension(model, data, l, h):
     p = data.warm.link_p
     for k in range(te.links.shape[0]):
         tension = -p[te.links[k], l] / h
+        if tension > data.tug_peak[l]:
+            data.tug_peak[l] = tension
+    if ev[E_TUG_TAUT, l] < 0 and data.tug_peak[l] >= 0.5 * data.tug_force[l]:
+        ev[E_TUG_TAUT, l] = ev[E_STEP, l]
+
+
+@njit(cache=True, inline='always', error_model='numpy')
+def record_tether_force(model, data, scr, l):
+    """The explicit method's :func:`record_tether_tension`: the tension (N) of a
+    main-tether segment is its Kelvin-Voigt force of the step (``scr.EF``, tension only)."""
+    ev = data.events
+    if ev[E_TUG_STEP, l] < 0:
+        return
+    te = model.tether
+    EF = scr.EF
+    for k in range(te.links.shape[0]):
+        m = te.links[k]
+        tension = np.sqrt(EF[m, 0, l] * EF[m, 0, l] + EF[m, 1, l] * EF[m, 1, l]
+                          + EF[m, 2, l] * EF[m, 2, l])
         if tension > data.tug_peak[l]:
             data.tug_peak[l] = tension
     if ev[E_TUG_TAUT, l] < 0 and data.tug_peak[l] >= 0.5 * data.tug_force[l]:

@@ -20,7 +20,7 @@ from .design import DESIGN_FIELDS, design_msg, design_from_msg
 from .noise import (NOISE_FIELDS, noise_settings_msg, noise_settings_from_msg, noise_model_from_msg,
                     noise_sample_msg, noise_sample_from_msg)
 from .setup import (LAUNCH_REQUEST_FIELDS, tumble_msg, tumble_from_msg, config_with_tumble,
-                    launch_from_request, target_from_request,
+                    launch_from_request, target_from_request, criterion_from_request, check_pull,
                     config_overrides, config_from_json, setup_msg, setup_from_msg)
 from .commands import launch_command_msg, closing_command_msg, commands_from_msgs
 from .states import net_state_msg, net_state_from_msg, target_pose_msg, clock_msg
@@ -35,7 +35,7 @@ __all__ = ["TUG_FIELDS", "tug_from_msg",
            "design_from_msg", "NOISE_FIELDS", "noise_settings_msg", "noise_settings_from_msg",
            "noise_model_from_msg", "noise_sample_msg", "noise_sample_from_msg", "tumble_msg",
            "tumble_from_msg", "config_with_tumble", "LAUNCH_REQUEST_FIELDS", "launch_from_request",
-           "target_from_request",
+           "target_from_request", "criterion_from_request", "check_pull",
            "config_overrides",
            "config_from_json", "setup_msg", "setup_from_msg", "launch_command_msg",
            "closing_command_msg", "commands_from_msgs", "net_state_msg", "net_state_from_msg",

@@ -69,9 +69,12 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
     pen = getattr(result, "max_penetration", math.nan)
     m.max_penetration = math.nan if pen is None else float(pen)
     m.launch_time = float(getattr(result, "launch_time", 0.0))
+    m.criterion = str(getattr(result, "criterion", "source") or "source")
     tug = getattr(result, "tug", None)
     m.tug_tested = tug is not None
     if tug is not None:
+        m.tug.holding_force = float(tug.get("holding_force", 0.0))
+        m.tug.ladder = [tug_level_msg(level) for level in tug.get("ladder", [])]
         for name in TUG_FIELDS:
             value = tug[name]
             if name in ("held", "reason"):
@@ -88,6 +91,14 @@ TUG_FIELDS = ("held", "reason", "peak_tension", "largest_slip", "net_offset", "f
               "slid_share", "closed_pairs", "peak_force", "take_up_time", "duration")
 
 
+def tug_level_msg(level: dict):
+    """TugLevel message of a ladder level (``tug.TugOutcome.ladder``)."""
+    from tethernet_msgs.msg import TugLevel
+
+    return TugLevel(force=float(level["force"]), held=bool(level["held"]),
+                    reason=str(level["reason"]), peak_tension=float(level["peak_tension"]))
+
+
 def tug_from_msg(m) -> dict | None:
     """The tug verdict of an EpisodeResult message as the core's dict (None: not tested,
     or a message recorded before it carried the test)."""
@@ -98,6 +109,10 @@ def tug_from_msg(m) -> dict | None:
     for name in TUG_FIELDS[2:]:
         if name != "closed_pairs":
             d[name] = None if not math.isfinite(d[name]) else float(d[name])
+    d["holding_force"] = float(getattr(m.tug, "holding_force", 0.0))
+    d["ladder"] = [{"force": float(lv.force), "held": bool(lv.held), "reason": str(lv.reason),
+                    "peak_tension": float(lv.peak_tension)}
+                   for lv in getattr(m.tug, "ladder", [])]
     return d
 
 
@@ -111,4 +126,5 @@ def episode_result_from_msg(m) -> EpisodeResult:
         failure_reason=m.failure_reason, wall_time=float(m.wall_time),
         seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
         max_penetration=float(getattr(m, "max_penetration", math.nan)),
-        launch_time=float(getattr(m, "launch_time", math.nan)), tug=tug_from_msg(m))
+        launch_time=float(getattr(m, "launch_time", math.nan)), tug=tug_from_msg(m),
+        criterion=str(getattr(m, "criterion", "") or "source"))

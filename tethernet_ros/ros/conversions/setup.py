@@ -58,7 +58,52 @@ def config_with_tumble(config: SimConfig, request) -> SimConfig:
     if launch is not None:
         config = config.replace(launch=launch)
     target = target_from_request(request)
-    return config if target is None else config.replace(target=target)
+    config = config if target is None else config.replace(target=target)
+    return criterion_from_request(request, config)
+
+
+def criterion_from_request(request, config: SimConfig) -> SimConfig:
+    """``config`` with the request's ``criterion`` (empty: the configured one; 'held' turns
+    the tug test on, ``config.with_criterion``) and ``tow_acceleration`` (0: the
+    configured one); RequestError names a bad field and its range."""
+    from dataclasses import replace
+
+    from ...core.config import CRITERIA, ConfigError
+    from ...core.tug import TugError
+
+    criterion = str(getattr(request, "criterion", "") or "")
+    if criterion:
+        if criterion not in CRITERIA:
+            raise RequestError("criterion", f"got {criterion!r}; must be one of "
+                               f"{', '.join(repr(c) for c in CRITERIA)} (empty: the capture "
+                               "node's configured one)")
+        try:
+            config = SimConfig.from_dict({**config_overrides(config), "criterion": criterion})
+        except ConfigError as exc:
+            raise RequestError("criterion", str(exc)) from None
+    accel = float(getattr(request, "tow_acceleration", 0.0))
+    if accel != 0.0:
+        try:
+            config = config.replace(tug=replace(config.tug, tow_acceleration=accel))
+        except TugError as exc:
+            text = str(exc)
+            raise RequestError("tow_acceleration",
+                               text.split(": ", 1)[1] if ": " in text else text) from None
+    return config
+
+
+def check_pull(design: Design, config: SimConfig) -> None:
+    """RequestError naming ``tow_acceleration`` (or the configuration's peak_tension) when
+    the required pull on the nominal target exceeds the tether's breaking load."""
+    from ...core.scenario import nominal_pull
+    from ...core.tug import TugError
+
+    try:
+        nominal_pull(design, config)
+    except TugError as exc:
+        text = str(exc)
+        field = "tow_acceleration" if "'tow_acceleration'" in text else "sim_config tug.peak_tension"
+        raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
 
 
 #: the LaunchConfig fields a RunCapture request or Capture goal carries (with

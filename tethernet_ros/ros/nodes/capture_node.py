@@ -277,6 +277,9 @@ class CaptureNode(Node):
             return conv.Outcome(REJECTED, str(exc))
         try:
             config = conv.config_with_tumble(self.sim_config(), request)
+            conv.check_pull(design, config)
+        except conv.RequestError as exc:
+            return conv.Outcome(REJECTED, str(exc))
         except (ConfigError, ValueError) as exc:
             return conv.Outcome(REJECTED, f"capture node configuration: {exc}")
         lockstep = bool(param(self, "lockstep"))
