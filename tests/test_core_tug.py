@@ -133,7 +133,7 @@ def test_batch_lanes_equal_single_runs_with_the_test(mass_min):
     from tethernet_ros.core.batch import BatchRunner
     from tethernet_ros.core.noise import NoiseModel
 
-    cfg = SimConfig(**SHORT, tug=_tug(400.0))
+    cfg = SimConfig(**SHORT, tug=_tug(400.0, ladder_levels=2))
     noise = NoiseModel()
     samples = [(i, noise.sample(i)) for i in (0, 1, 2)]
     single = {i: run_episode(mass_min, s, cfg, record_trace=False) for i, s in samples}

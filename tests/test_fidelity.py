@@ -82,8 +82,6 @@ def test_exploration_sets_the_step_to_2_ms_8_sweeps_and_the_early_call_and_nothi
     (SimConfig(dt=1e-3), "'dt' is 0.001"),
     (SimConfig(implicit_iterations=6), "'implicit_iterations' is 6"),
     (SimConfig(early_call=True), "'early_call' is True"),
-    (SimConfig(tether_order="chain", tug={"enabled": True, "peak_tension": 400.0}),
-     "config field 'early_call': the tug test starts"),
     (SimConfig.preset("spec-text"), "'integrator' is 'explicit'"),
     (SimConfig(metric_rate=1000.0), "config field 'implicit_dt': 1/(metric_rate*implicit_dt)"),
 ])

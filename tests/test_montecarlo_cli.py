@@ -39,7 +39,8 @@ def test_validate_json_matches_library(tmp_path):
     assert d["mass"] == pytest.approx(11.49, abs=0.01)
     assert len(sample_lines(res)) == 2
     # each record says which criterion judged it (issue 36 point 3)
-    assert all(json.loads(ln)["criterion"] == {"success_cqi": 2.0, "success_locked_pairs": 10}
+    assert all(json.loads(ln)["criterion"] == {"name": "source", "success_cqi": 2.0,
+                                                "success_locked_pairs": 10}
                for ln in sample_lines(res))
     # run again: everything read back from the results file, same answer
     again = tethernet("validate", "--design", "time-min", "--samples", "2", "--settle-time", "2",

@@ -15,7 +15,7 @@ import numpy as np
 from . import kernel as kn
 from .config import SimConfig
 from .design import Design
-from .metrics import CQITerms, capture_quality_index, capture_verdict, clear_success
+from .metrics import NOT_HELD, CQITerms, capture_quality_index, capture_verdict, clear_success
 from .noise import NoiseSample
 from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, build_scenario,
                        world_for)
@@ -421,10 +421,25 @@ def held_verdict(sim: CaptureSimulation) -> tuple[bool, str]:
     tug test held it at the required pull, why not).  The one home of this rule."""
     out = None if sim.tug is None else sim.tug.outcome
     if out is None:
-        return False, "not held: the tug test did not run"
+        return False, f"{NOT_HELD}: the tug test did not run"
     if out.held:
         return True, ""
-    return False, f"not held under the required pull {out.peak_force:.4g} N: {out.reason}"
+    return False, f"{NOT_HELD} under the required pull {out.peak_force:.4g} N: {out.reason}"
+
+
+def source_verdict(r) -> tuple[bool, str]:
+    """(success, failure reason) of a result by the source's criterion (an EpisodeResult,
+    a Monte Carlo SampleResult or an EpisodeResult message: anything with success,
+    failure_reason, criterion and tug or tug_tested).
+    Under criterion 'held' the tug runs on the source's successes only, so a result whose
+    tug was tested was the source's success; any other is judged as the source judged it."""
+    reason = getattr(r, "failure_reason", "")
+    if (getattr(r, "criterion", "") or "source") == "source":
+        return bool(r.success), reason
+    tested = getattr(r, "tug_tested", None)
+    if tested is None:
+        tested = getattr(r, "tug", None) is not None
+    return (True, "") if tested else (bool(r.success), reason)
 
 
 def run_episode(design: Design, sample: NoiseSample | None = None, config: SimConfig | None = None,

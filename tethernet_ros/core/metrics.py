@@ -135,12 +135,18 @@ def capture_verdict(settled_cqi: float, locked_pairs: int, max_cqi: float = 2.0,
 CONTROLLER_TIMEOUT = "controller did not answer"
 
 
+#: the start of the reason, and the category, of a capture the source's criterion calls a
+#: success that the tug test did not hold (criterion 'held', ``episode.held_verdict``)
+NOT_HELD = "not held"
+
+
 def failure_category(reason: str, settled_cqi: float | None = None,
                      locked_pairs: int | None = None, closing_time: float | None = None,
                      max_cqi: float = 2.0, min_locked_pairs: int = 10) -> str:
     """Group a failed episode into a category for counting ('' when ``reason`` is empty).
 
-    Categories: 'worker error', 'controller did not answer', 'diverged', 'closing never
+    Categories: 'worker error', 'controller did not answer', 'not held' (criterion 'held':
+    the tug test lost a capture the source calls a success), 'diverged', 'closing never
     triggered', 'settled CQI > 2',
     'locked pairs < 10', 'settled CQI > 2 and locked pairs < 10' (thresholds as given),
     'other'.  The numbers (settled CQI, n_L, closing time; NaN closing time = never
@@ -154,6 +160,8 @@ def failure_category(reason: str, settled_cqi: float | None = None,
         return "worker error"
     if reason.startswith(CONTROLLER_TIMEOUT):
         return CONTROLLER_TIMEOUT
+    if reason.startswith(NOT_HELD):
+        return NOT_HELD
     if "diverged" in r:
         return "diverged"
     if closing_time is not None or settled_cqi is not None:

@@ -108,12 +108,17 @@ def _usable(rec: SampleResult | None, record_trace: bool) -> bool:
 def _extra(spec: RunSpec) -> dict:
     """What a results-file record adds to say which run it belongs to (and, for a target
     other than the default Zenit-2, which: its name, file, SHA-256 and units), and the
-    criterion that judged its success (docs/model.md §7: the settled CQI's bound and the
-    locked pairs needed)."""
+    criterion that judged its success: its name ('source' or 'held', docs/model.md §17),
+    the settled CQI's bound and the locked pairs needed (§7), and under 'held' the pull's
+    towing acceleration and the thrust given directly (0: none)."""
     cfg = spec.config
+    criterion = {"name": cfg.criterion, "success_cqi": cfg.success_cqi,
+                 "success_locked_pairs": cfg.success_locked_pairs}
+    if cfg.criterion == "held":
+        criterion.update(tow_acceleration=cfg.tug.tow_acceleration,
+                         peak_tension=cfg.tug.peak_tension)
     extra = {"design": spec.design.to_dict(), "noise_scales": spec.noise_model.scales,
-             "criterion": {"success_cqi": cfg.success_cqi,
-                           "success_locked_pairs": cfg.success_locked_pairs}}
+             "criterion": criterion}
     if cfg.target.kind != "revolution":
         extra["target"] = cfg.target.identity()
     return extra

@@ -78,11 +78,15 @@ class SampleResult:
     trace: dict | None = None
     launch_time: float = 0.0
     tug: dict | None = None
+    #: the success criterion that judged ``success`` ('source' or 'held'; config.py); a
+    #: results-file record holds it as the name of its ``criterion`` mapping, with the
+    #: thresholds (``evaluate._extra``)
+    criterion: str = "source"
 
     # fields that must agree bit for bit whichever backend ran the sample
     DETERMINISTIC = ("key", "seed", "success", "settled_cqi", "locked_pairs", "closing_time",
                      "completion_time", "mass", "failure_reason", "category", "steps",
-                     "max_penetration", "trace", "launch_time", "tug")
+                     "max_penetration", "trace", "launch_time", "tug", "criterion")
 
     def outcome(self) -> dict:
         """The deterministic part (no wall time, index or attempt count), for comparisons."""
@@ -102,6 +106,8 @@ class SampleResult:
                   "wall_time", "cpu_time"):
             if d.get(k) is None:
                 d[k] = math.nan
+        if isinstance(d.get("criterion"), dict):
+            d["criterion"] = d["criterion"].get("name", "source")
         if "launch_time" in d and d["launch_time"] is None:
             d["launch_time"] = math.nan     # (a record before launch policies has none: 0)
         return cls(**d)
@@ -128,7 +134,8 @@ def sample_result(task: EpisodeTask, episode, cpu_time: float = 0.0, trace: dict
         wall_time=float(episode.wall_time if wall_time is None else wall_time),
         cpu_time=cpu_time, attempts=task.attempt + 1, trace=trace,
         launch_time=float(getattr(episode, "launch_time", 0.0)),
-        tug=getattr(episode, "tug", None))
+        tug=getattr(episode, "tug", None),
+        criterion=str(getattr(episode, "criterion", "source") or "source"))
 
 
 def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:
@@ -137,7 +144,7 @@ def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:
         key=task.key, index=task.index, seed=task.seed, success=False, settled_cqi=math.nan,
         locked_pairs=0, closing_time=math.nan, completion_time=math.nan,
         mass=task.design.mass(task.config.density), failure_reason=f"worker error: {error}",
-        category="worker error", attempts=task.attempt + 1)
+        category="worker error", attempts=task.attempt + 1, criterion=task.config.criterion)
 
 
 def error_text(exc: BaseException) -> str:

@@ -65,7 +65,8 @@ def controller_failure_result(task: EpisodeTask, reason: str, wall_time: float) 
         key=task.key, index=task.index, seed=task.seed, success=False, settled_cqi=math.nan,
         locked_pairs=0, closing_time=math.nan, completion_time=math.nan,
         mass=task.design.mass(task.config.density), failure_reason=reason,
-        category=CONTROLLER_FAILURE, steps=-1, wall_time=wall_time, attempts=task.attempt + 1)
+        category=CONTROLLER_FAILURE, steps=-1, wall_time=wall_time, attempts=task.attempt + 1,
+        criterion=task.config.criterion)
 
 
 class _Slot:

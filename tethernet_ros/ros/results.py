@@ -4,23 +4,12 @@ from __future__ import annotations
 
 import math
 
+from ..core.episode import source_verdict
 from .names import TOPICS
 
 
 class BagResultError(RuntimeError):
     """The episode's bag does not hold a usable, consistent result (one line)."""
-
-
-def source_verdict(r) -> tuple[bool, str]:
-    """(success, failure reason) of a result (core or message) by the source's criterion.
-    Under criterion 'held' the tug runs on the source's successes only, so a result whose
-    tug was tested was the source's success; any other is judged as the source judged it."""
-    if (getattr(r, "criterion", "") or "source") == "source":
-        return bool(r.success), r.failure_reason
-    tested = getattr(r, "tug_tested", None)
-    if tested is None:
-        tested = getattr(r, "tug", None) is not None
-    return (True, "") if tested else (bool(r.success), r.failure_reason)
 
 
 def compare_results(a, b) -> str:

@@ -7,6 +7,7 @@ import math
 from collections import Counter
 from dataclasses import asdict, dataclass
 
+from ..core.episode import source_verdict
 from ..core.metrics import wilson_interval
 
 __all__ = ["Confusion", "confusion", "confusion_table"]
@@ -56,18 +57,21 @@ def median(xs) -> float:
 
 def confusion(label: str, samples, breaking: float = math.inf) -> Confusion:
     """The confusion of one cell's samples (``SampleResult`` with ``tug``); ``breaking``:
-    the tether's breaking load (N)."""
+    the tether's breaking load (N).  A sample judged by criterion 'held' is counted by its
+    source verdict (``episode.source_verdict``)."""
+    def source(s):
+        return source_verdict(s)[0]
     tested = [s for s in samples if s.tug]
-    ok = [s for s in tested if s.success]
+    ok = [s for s in tested if source(s)]
     held_ok = [s for s in ok if s.tug["held"]]
     lost_ok = [s for s in ok if not s.tug["held"]]
-    fail = [s for s in tested if not s.success]
+    fail = [s for s in tested if not source(s)]
     held_fail = [s for s in fail if s.tug["held"]]
     lo, hi = wilson_interval(len(held_ok), len(ok)) if ok else (math.nan, math.nan)
     peaks = [s.tug["peak_tension"] for s in tested if s.tug["peak_tension"] is not None]
     reasons = Counter(s.tug["reason"].split(":")[0] for s in lost_ok)
     return Confusion(
-        label=label, n=len(samples), source_success=sum(1 for s in samples if s.success),
+        label=label, n=len(samples), source_success=sum(1 for s in samples if source(s)),
         held=sum(1 for s in tested if s.tug["held"]), agree_held=len(held_ok),
         false_captures=len(lost_ok), missed_captures=len(held_fail),
         agree_lost=len(fail) - len(held_fail), untested=len(samples) - len(tested),
