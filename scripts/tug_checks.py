@@ -24,8 +24,8 @@ import sys
 from pathlib import Path
 
 from tethernet_ros.core.episode import source_verdict
-from tethernet_ros.core.metrics import wilson_interval
 from tethernet_ros.studies.files import samples_by_seed
+from tethernet_ros.studies.tug import holding_shares, share
 
 #: thresholds of the share slid off at which the reference cells are judged again
 SLID_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7)
@@ -37,11 +37,6 @@ SLID_REASON = "the net slid off"
 def tested(samples: dict) -> dict:
     """seed -> tug verdict of the samples the source called a success and the tug tested."""
     return {seed: s.tug for seed, s in samples.items() if s.tug and source_verdict(s)[0]}
-
-
-def share(k: int, n: int) -> dict:
-    lo, hi = wilson_interval(k, n) if n else (math.nan, math.nan)
-    return {"k": k, "n": n, "share": k / n if n else math.nan, "lo": lo, "hi": hi}
 
 
 def paired(ref: dict, other: dict) -> dict:
@@ -68,20 +63,6 @@ def rejudged(tugs: dict, threshold: float) -> int:
             continue                     # lost before the share slid off was looked at
         n += t["slid_share"] <= threshold
     return n
-
-
-def holding_shares(tugs: dict) -> list[dict]:
-    """The share held at each pull of the ladder (the required pull first): a capture holds
-    a pull when its holding force is at least it."""
-    pulls = set()
-    for t in tugs.values():
-        pulls.add(t["peak_force"])
-        pulls.update(lv["force"] for lv in t.get("ladder") or [])
-    rows = []
-    for f in sorted(pulls):
-        k = sum(1 for t in tugs.values() if t.get("holding_force", 0.0) >= f * (1 - 1e-12))
-        rows.append({"pull": f, **share(k, len(tugs))})
-    return rows
 
 
 def peak_stats(tugs: dict) -> dict:
@@ -145,7 +126,7 @@ def report(directory: Path) -> tuple[str, dict]:
             f"{g['k']}/{g['n']} ({100 * g['share']:.1f} %)" for g in got) + " |")
         data["slid"].append({"design": design, "thresholds": list(SLID_THRESHOLDS),
                              "held": got})
-        data["holding"].append({"design": design, "shares": holding_shares(tugs)})
+        data["holding"].append({"design": design, "shares": holding_shares(tugs.values())})
     lines += ["", "Share of the tested captures that hold each pull (the ladder of the "
               "reference cells; Wilson 95 %):", "", "| design | pull (N) | held % [95 %] |",
               "|---|---|---|"]

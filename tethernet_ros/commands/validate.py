@@ -174,6 +174,11 @@ def run(args) -> int:
         print_json(out if args.reference else out[0])
         return 0
     print(results_table([r for r, _ in results]))
+    from ..studies.tug import criterion_text
+
+    held = [t for t in (criterion_text(r.label, r.samples) for r, _ in results) if t]
+    if held:
+        print("\n" + "\n".join(held))
     if spun:
         print("\n" + attitude_text(results, design_by_label, config, model))
     errs = sum(r.failures_by_reason.get("worker error", 0) for r, _ in results)

@@ -10,7 +10,8 @@ from dataclasses import asdict, dataclass
 from ..core.episode import source_verdict
 from ..core.metrics import wilson_interval
 
-__all__ = ["Confusion", "confusion", "confusion_table"]
+__all__ = ["Confusion", "confusion", "confusion_table", "criterion_text", "holding_shares",
+           "share"]
 
 
 @dataclass
@@ -99,4 +100,48 @@ def confusion_table(rows: list[Confusion]) -> str:
             f"{pct(c.hold_share)} [{pct(c.hold_lo)}, {pct(c.hold_hi)}] | "
             f"{c.mean_peak_tension / 1e3:.1f} / {c.max_peak_tension / 1e3:.1f} | "
             f"{c.over_breaking} | {pct(c.slid_median_held)} / {pct(c.slid_median_lost)} % |")
+    return "\n".join(lines)
+
+
+def share(k: int, n: int) -> dict:
+    """k of n as a share with its Wilson 95 % interval (NaN when n is 0)."""
+    lo, hi = wilson_interval(k, n) if n else (math.nan, math.nan)
+    return {"k": k, "n": n, "share": k / n if n else math.nan, "lo": lo, "hi": hi}
+
+
+def holding_shares(tugs) -> list[dict]:
+    """The share of tug verdicts (dicts, ``tug.TugOutcome.to_dict``) that hold each pull of
+    their ladders, the required pull first: a capture holds a pull when its holding force
+    is at least it (docs/model.md §17)."""
+    tugs = list(tugs)
+    pulls = set()
+    for t in tugs:
+        pulls.add(t["peak_force"])
+        pulls.update(lv["force"] for lv in t.get("ladder") or [])
+    return [{"pull": f, **share(sum(1 for t in tugs
+                                    if t.get("holding_force", 0.0) >= f * (1 - 1e-12)),
+                                len(tugs))}
+            for f in sorted(pulls)]
+
+
+def criterion_text(label: str, samples) -> str:
+    """One run's samples under criterion 'held' in a few lines: P*_s by the source's
+    criterion and by 'held' (Wilson 95 %), and the share of the source's successes that
+    hold each pull of the ladder; '' for a run judged by the source's criterion."""
+    samples = list(samples)
+    if not samples or all((getattr(s, "criterion", "source") or "source") == "source"
+                          for s in samples):
+        return ""
+    n = len(samples)
+    src = share(sum(1 for s in samples if source_verdict(s)[0]), n)
+    held = share(sum(1 for s in samples if s.success), n)
+    tugs = [s.tug for s in samples if s.tug and source_verdict(s)[0]]
+
+    def pct(d):
+        return f"{100 * d['share']:.1f} % [{100 * d['lo']:.1f}, {100 * d['hi']:.1f}]"
+    lines = [f"{label}: P*_s by criterion held {held['k']}/{n} = {pct(held)}; by the source's "
+             f"criterion {src['k']}/{n} = {pct(src)}"]
+    if tugs:
+        lines.append("  the source's successes that hold each pull: " + ", ".join(
+            f"{r['pull']:g} N {r['k']}/{r['n']} ({pct(r)})" for r in holding_shares(tugs)))
     return "\n".join(lines)
