@@ -206,7 +206,7 @@ class ConstrainedBayesOpt:
 
         Call :meth:`tell` with its result before asking again: a repeated ask in the
         model-based phase draws fresh candidates and may return a different point.
-        Diagnostics of the choice are left in :attr:`last_ask_info`.
+        Diagnostics of the choice are left in ``last_ask_info``.
         """
         n = len(self.history)
         if n < self.n_initial:

@@ -63,7 +63,8 @@ class Observation:
         feasible: every observed constraint value met its threshold.
         info: free-form JSON-serialisable data returned by the evaluated function.
         acquisition: how the optimiser chose ``x`` (phase, acquisition value, EI+ tries,
-            model predictions); empty if ``x`` was not produced by :meth:`ask`.
+            model predictions); empty if ``x`` was not produced by
+            :meth:`optimizer.bayesopt.ConstrainedBayesOpt.ask`.
     """
 
     x: np.ndarray

@@ -39,7 +39,7 @@ def rank_candidates(opt: ConstrainedBayesOpt, min_probability: float | None = 0.
     observed feasible.  ``evidence``: failed validations (:func:`validation_evidence`)
     that the constraint GP is fitted to besides the history.  ``level``: the P*_s that
     the posterior probability is taken against instead of C_P (the selection level,
-    :func:`optimizer.finish.validation_pass_level`)."""
+    :func:`optimizer.finish.selection_level`)."""
     plain = opt.ranked_feasible()
     if not plain:
         return [], "no evaluated design met the constraints"

@@ -94,3 +94,13 @@ def test_top_level_help_lists_every_command():
     assert out.returncode == 0, out.stderr
     for name in ("capture", "validate", "sensitivity", "figures", "replay", "optimize"):
         assert name in out.stdout
+
+
+def test_a_command_module_that_fails_to_import_is_not_skipped(monkeypatch):
+    """A command module missing or failing to import stops the parser with its error
+    (issue 54: it was left out of `tethernet --help` silently)."""
+    from tethernet_ros import cli
+
+    monkeypatch.setattr(cli, "COMMANDS", cli.COMMANDS + ("no_such_command",))
+    with pytest.raises(ModuleNotFoundError, match="tethernet_ros.commands.no_such_command"):
+        cli.build_parser()

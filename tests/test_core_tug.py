@@ -117,7 +117,8 @@ def test_tug_refusals():
 
 
 def test_the_example_config_file_turns_the_test_on():
-    """config/tug.yaml (the README's example) is a valid configuration with the test on."""
+    """config/tug.yaml (the README's example) is a valid configuration with the test on;
+    config/held.yaml one judged by criterion 'held' at 0.05 m/s^2."""
     import pathlib
 
     import yaml
@@ -125,6 +126,9 @@ def test_the_example_config_file_turns_the_test_on():
     path = pathlib.Path(__file__).resolve().parent.parent / "config" / "tug.yaml"
     cfg = SimConfig.from_dict(yaml.safe_load(path.read_text()))
     assert cfg.tug.enabled and cfg.tug.peak_tension == 400.0 and cfg.tether_order == "chain"
+    held = SimConfig.from_dict(yaml.safe_load((path.parent / "held.yaml").read_text()))
+    assert held.criterion == "held" and held.tug.enabled and held.tether_order == "chain"
+    assert (held.tug.peak_tension, held.tug.tow_acceleration) == (0.0, 0.05)
 
 
 def test_batch_lanes_equal_single_runs_with_the_test(mass_min):

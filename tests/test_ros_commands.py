@@ -161,3 +161,28 @@ def _short(tmp_path: Path) -> Path:
     p = tmp_path / "short.yaml"
     p.write_text("settle_time: 2.0\n")
     return p
+
+
+def test_a_request_naming_a_target_keeps_the_configured_attitude():
+    """A RunCapture request that names a target keeps the configured target's
+    attitude_deg, as `--target NAME` over a config file does (issue 54: it was dropped);
+    its mass and mesh are the named target's.  The request's criterion and acceleration
+    are refused naming the field."""
+    from types import SimpleNamespace
+
+    from tethernet_ros.core.target import TargetConfig
+    from tethernet_ros.ros.conversions import RequestError, config_with_tumble
+
+    config = SimConfig(target=TargetConfig(attitude_deg=(90.0, 0.0, 0.0)))
+    request = SimpleNamespace(set_tumble=False, set_launch=False, target="envisat",
+                              target_mass=0.0, criterion="", tow_acceleration=0.0)
+    got = config_with_tumble(config, request)
+    assert got.target.attitude_deg == (90.0, 0.0, 0.0) and got.target.name == "envisat"
+    assert got.target.mass != config.target.mass
+    held = config_with_tumble(config, SimpleNamespace(**{**vars(request), "criterion": "held",
+                                                         "tow_acceleration": 0.1}))
+    assert held.criterion == "held" and held.tug.enabled and held.tug.tow_acceleration == 0.1
+    assert held.tether_order == "chain"
+    for field, value in (("criterion", "tug"), ("tow_acceleration", -1.0)):
+        with pytest.raises(RequestError, match=f"^{field}: got"):
+            config_with_tumble(config, SimpleNamespace(**{**vars(request), field: value}))

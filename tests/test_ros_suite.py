@@ -461,6 +461,53 @@ def test_a_cancelled_call_leaves_the_episode(suite):
                                  for m in suite.metrics)
 
 
+def test_requested_criterion_and_tow_acceleration_equal_the_library(suite):
+    """A RunCapture request that asks for criterion 'held' at a towing acceleration gives
+    the library's result bit for bit (every result field, the tug's verdict, its holding
+    force and ladder; docs/model.md §17); the bag records the criterion and `tethernet
+    replay` names it; a bad criterion, a bad acceleration and a pull above the tether's
+    breaking load are each REJECTED in one line naming the field, and the suite serves
+    the next request."""
+    accel = 0.02
+    cfg = SimConfig.from_dict({"settle_time": CONFIG.settle_time, "criterion": "held",
+                               "tug": {"tow_acceleration": accel}})
+    ref = run_episode(DESIGN, NOISE.sample(SEED), cfg, record_trace=False)
+    assert ref.criterion == "held" and ref.tug is not None
+    assert ref.tug["peak_force"] == accel * 8300.0
+    result, bag = suite.capture(DESIGN, SEED, bag_name="held_seed3", criterion="held",
+                                tow_acceleration=accel)
+    for f in RESULT_FIELDS:
+        if f not in ("wall_time", "seed", "settled_terms"):      # (the message has no terms)
+            assert getattr(result, f) == getattr(ref, f) or (
+                isinstance(getattr(ref, f), float) and math.isnan(getattr(ref, f))), f
+    assert result.tug == ref.tug and result.criterion == "held"
+    report = json.loads(run_cli("replay", str(bag), "--json").stdout)
+    assert report["ok"], report["problems"]
+    assert report["criterion"] == "held" and report["recorded_tug"] == ref.tug
+    text = run_cli("replay", str(bag)).stdout
+    assert "[criterion held]" in text and "holding force" in text or not ref.tug["held"]
+    for fields, words in (({"criterion": "tug"},
+                           r"^criterion: got 'tug'; must be one of 'source', 'held'"),
+                          ({"criterion": "held", "tow_acceleration": -0.05},
+                           r"^tow_acceleration: got -0\.05; must be an acceleration in "
+                           r"\[1e-4, 10\] m/s\^2$"),
+                          ({"criterion": "held", "tow_acceleration": float("nan")},
+                           r"^tow_acceleration: got nan; must be an acceleration in"),
+                          ({"criterion": "held", "tow_acceleration": 6.0},
+                           r"^tow_acceleration: got 6 m/s\^2, a pull of 4\.98e\+04 N on the "
+                           r"8300 kg target; must be at most 4\.996 m/s\^2")):
+        req = suite.request(DESIGN, SEED, record_bag=False)
+        for k, v in fields.items():
+            setattr(req, k, v)
+        resp = suite.call(req, timeout=60)
+        assert resp.status == RunCapture.Response.REJECTED, fields
+        assert re.match(words, resp.error), resp.error
+    again, _ = suite.capture(DESIGN, SEED, record_bag=False)
+    assert again.criterion == "source" and again.tug is None
+    plain = run_episode(DESIGN, NOISE.sample(SEED), CONFIG, record_trace=False)
+    assert (again.success, again.settled_cqi) == (plain.success, plain.settled_cqi)
+
+
 def test_sim_node_killed_mid_episode(suite):
     """Last in the module: it leaves the suite without a simulation node."""
     req = suite.request(load_design("baseline"), 5, bag_name="killed")
@@ -538,49 +585,3 @@ def test_tug_via_ros_equals_library(tmp_path):
     assert report["ok"], report["problems"]
     assert report["recorded_tug"] == ref.tug
 
-
-def test_requested_criterion_and_tow_acceleration_equal_the_library(suite):
-    """A RunCapture request that asks for criterion 'held' at a towing acceleration gives
-    the library's result bit for bit (every result field, the tug's verdict, its holding
-    force and ladder; docs/model.md §17); the bag records the criterion and `tethernet
-    replay` names it; a bad criterion, a bad acceleration and a pull above the tether's
-    breaking load are each REJECTED in one line naming the field, and the suite serves
-    the next request."""
-    accel = 0.02
-    cfg = SimConfig.from_dict({"settle_time": CONFIG.settle_time, "criterion": "held",
-                               "tug": {"tow_acceleration": accel}})
-    ref = run_episode(DESIGN, NOISE.sample(SEED), cfg, record_trace=False)
-    assert ref.criterion == "held" and ref.tug is not None
-    assert ref.tug["peak_force"] == accel * 8300.0
-    result, bag = suite.capture(DESIGN, SEED, bag_name="held_seed3", criterion="held",
-                                tow_acceleration=accel)
-    for f in RESULT_FIELDS:
-        if f not in ("wall_time", "seed", "settled_terms"):      # (the message has no terms)
-            assert getattr(result, f) == getattr(ref, f) or (
-                isinstance(getattr(ref, f), float) and math.isnan(getattr(ref, f))), f
-    assert result.tug == ref.tug and result.criterion == "held"
-    report = json.loads(run_cli("replay", str(bag), "--json").stdout)
-    assert report["ok"], report["problems"]
-    assert report["criterion"] == "held" and report["recorded_tug"] == ref.tug
-    text = run_cli("replay", str(bag)).stdout
-    assert "[criterion held]" in text and "holding force" in text or not ref.tug["held"]
-    for fields, words in (({"criterion": "tug"},
-                           r"^criterion: got 'tug'; must be one of 'source', 'held'"),
-                          ({"criterion": "held", "tow_acceleration": -0.05},
-                           r"^tow_acceleration: got -0\.05; must be an acceleration in "
-                           r"\[1e-4, 10\] m/s\^2$"),
-                          ({"criterion": "held", "tow_acceleration": float("nan")},
-                           r"^tow_acceleration: got nan; must be an acceleration in"),
-                          ({"criterion": "held", "tow_acceleration": 6.0},
-                           r"^tow_acceleration: got 6 m/s\^2, a pull of 4\.98e\+04 N on the "
-                           r"8300 kg target; must be at most 4\.996 m/s\^2")):
-        req = suite.request(DESIGN, SEED, record_bag=False)
-        for k, v in fields.items():
-            setattr(req, k, v)
-        resp = suite.call(req, timeout=60)
-        assert resp.status == RunCapture.Response.REJECTED, fields
-        assert re.match(words, resp.error), resp.error
-    again, _ = suite.capture(DESIGN, SEED, record_bag=False)
-    assert again.criterion == "source" and again.tug is None
-    plain = run_episode(DESIGN, NOISE.sample(SEED), CONFIG, record_trace=False)
-    assert (again.success, again.settled_cqi) == (plain.success, plain.settled_cqi)

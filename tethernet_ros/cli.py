@@ -34,12 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     for name in COMMANDS:
-        try:
-            mod = importlib.import_module(f"tethernet_ros.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name and exc.name.startswith("tethernet_ros.commands"):
-                continue  # command not built yet
-            raise
+        # a command module that fails to import is an error, not a command left out
+        mod = importlib.import_module(f"tethernet_ros.commands.{name}")
         text = mod.HELP.replace("%", "%%")  # argparse formats help strings with %
         p = sub.add_parser(mod.NAME, help=text, description=mod.HELP)
         mod.add_arguments(p)

@@ -160,14 +160,6 @@ def validate_design(design: Design) -> None:
             raise DesignError(field, f"got {value}; must be {text}")
 
 
-def check_within_bounds(x: Sequence[float]) -> None:
-    """Raise DesignError if an optimisation vector leaves the search bounds."""
-    for name, value in zip(VARIABLE_NAMES, x):
-        lo, hi = DESIGN_BOUNDS[name]
-        if not (lo <= value <= hi):
-            raise DesignError(name, f"got {value}; the optimiser searches [{lo}, {hi}]")
-
-
 #: Reference designs of docs/model.md §9.
 REFERENCE_DESIGNS: dict[str, Design] = {
     "baseline": Design(m_c=0.5, L_n=20.0, r_n=0.001, d_L=20.0, V_e=(0.40, 0.40, 2.00), d_c=0.50),

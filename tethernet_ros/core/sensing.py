@@ -108,7 +108,7 @@ class Sensor:
     def measure(self, truth: np.ndarray, step: int) -> np.ndarray | None:
         """The measurement the controller has at ``step`` (the mission's clock,
         ``kernel.measure``) after a true measurement taken then (None until the first has
-        arrived); :attr:`taken` says when it was taken."""
+        arrived); its ``taken`` says when it was taken."""
         got = measure_one(self.control, self.state, np.asarray(truth, dtype=np.float64), int(step))
         self.taken = int(got[N_CHANNELS])
         return None if self.taken < 0 else got[:N_CHANNELS].copy()

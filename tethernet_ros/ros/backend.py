@@ -239,7 +239,7 @@ class RosBackend(EpisodeBackend):
     def run_task(self, task: EpisodeTask, slot: _Slot | None = None,
                  cancel: threading.Event | None = None) -> SampleResult:
         """One sample through a suite; the result as recorded in the episode's bag
-        (``cancel``: abandon the episode once set, :meth:`RosSuite.call`)."""
+        (``cancel``: abandon the episode once set, :meth:`.suite.RosSuite.call`)."""
         suite = self._suite_for(slot or self._slots[0], task)
         name = sample_name(task.key, task.seed, task.attempt)
         t0 = time.perf_counter()

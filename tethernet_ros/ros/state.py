@@ -19,7 +19,7 @@ class Setup:
     header, the key that ties the actuator's commands to it; request_seed: the seed the
     request gave, which results report (also when nominal, where no noise is drawn);
     lockstep: the capture node asked for the closing policy to run through ROS (see
-    :func:`..loop.runs_in_lockstep`, which also says so for the policy 'external')."""
+    :func:`.loop.runs_in_lockstep`, which also says so for the policy 'external')."""
 
     episode_id: str
     design: Design

@@ -182,9 +182,3 @@ def lane_of(part, lane: int):
 
 def lane_count(data: Data) -> int:
     return int(data.close_threshold.shape[0])
-
-
-def events_of(data: Data, lane: int) -> np.ndarray:
-    """The (N_EV,) events of one lane (a view)."""
-    assert data.events.shape[0] == N_EV
-    return data.events[:, lane]

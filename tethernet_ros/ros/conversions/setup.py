@@ -57,7 +57,7 @@ def config_with_tumble(config: SimConfig, request) -> SimConfig:
     launch = launch_from_request(request, config.launch)
     if launch is not None:
         config = config.replace(launch=launch)
-    target = target_from_request(request)
+    target = target_from_request(request, config.target)
     config = config if target is None else config.replace(target=target)
     return criterion_from_request(request, config)
 
@@ -136,9 +136,11 @@ def launch_from_request(request, base=None):
         raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
 
 
-def target_from_request(request):
+def target_from_request(request, base=None):
     """The TargetConfig a request's ``target`` and ``target_mass`` name (None: the
-    configured target); RequestError names the bad field."""
+    configured target); a target named anew keeps only where ``base`` (the configured
+    target) is turned, ``attitude_deg``, as the CLI's --target does; RequestError names
+    the bad field."""
     from ...core.target import TargetConfig, TargetError, target_fields
 
     name = getattr(request, "target", "") or ""
@@ -151,7 +153,9 @@ def target_from_request(request):
         raise RequestError("target_mass", f"got {mass!r}; must be a mass > 0 kg (0: the "
                            "catalogue's)")
     try:
-        return TargetConfig(**target_fields(name), **({"mass": mass} if mass > 0 else {}))
+        turned = {} if base is None else {"attitude_deg": base.attitude_deg}
+        return TargetConfig(**target_fields(name), **turned,
+                            **({"mass": mass} if mass > 0 else {}))
     except TargetError as exc:
         text = str(exc)
         field = "target_mass" if "'mass'" in text else "target"
