@@ -104,3 +104,32 @@ def test_a_command_module_that_fails_to_import_is_not_skipped(monkeypatch):
     monkeypatch.setattr(cli, "COMMANDS", cli.COMMANDS + ("no_such_command",))
     with pytest.raises(ModuleNotFoundError, match="tethernet_ros.commands.no_such_command"):
         cli.build_parser()
+
+
+def test_target_show_tells_what_the_tool_made_of_a_target(tmp_path):
+    """`tethernet target show` (issue 54 point 8): the catalogue's Zenit-2 with its
+    closed-form numbers, a mesh file with its repairs and a drawing, and a refusal in one
+    line for a mesh of two bodies."""
+    import trimesh
+
+    out = tethernet("target", "show", "zenit-2", "--json")
+    assert out.returncode == 0, out.stderr
+    d = json.loads(out.stdout)
+    assert d["kind"] == "revolution" and d["mass"] == 8300.0
+    assert d["required_pull"] == 415.0 and d["design_bounds"]["m_c"] == [1.0, 4.0]
+    assert d["L_c"] == pytest.approx(1.95) and d["bounding_radius"] == pytest.approx(5.554, abs=1e-3)
+    box = trimesh.creation.box((4.0, 1.0, 2.0))
+    box.faces = box.faces[:, ::-1]                      # inverted: repaired and reported
+    path = tmp_path / "box.stl"
+    box.export(path)
+    png = tmp_path / "box.png"
+    out = tethernet("target", "show", str(path), "--target-mass", "80", "--png", str(png))
+    assert out.returncode == 0, out.stderr
+    assert "volume             8 m^3" in out.stdout and "inverted normals" in out.stdout
+    assert "principal moments  (33.33" in out.stdout and png.stat().st_size > 1000
+    two = trimesh.util.concatenate([trimesh.creation.box((1, 1, 1)), trimesh.creation.box(
+        (1, 1, 1), transform=trimesh.transformations.translation_matrix((5.0, 0.0, 0.0)))])
+    two.export(tmp_path / "two.stl")
+    out = tethernet("target", "show", str(tmp_path / "two.stl"), "--target-mass", "80")
+    assert out.returncode == 2 and "2 separate bodies apart" in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1

@@ -176,12 +176,28 @@ def test_repairable_meshes_are_repaired_and_reported(tmp_path, make, repaired):
     (lambda: trimesh.creation.box((2000.0, 3000.0, 1000.0)), "m", "in mm\\? give units 'mm'"),
     (lambda: trimesh.creation.box((0.01, 0.01, 0.01)), "m", "must be 0.05-200 m"),
     (lambda: trimesh.util.concatenate([trimesh.creation.box((2, 2, 2)),
-                                       trimesh.creation.box((1, 1, 3))]), "m", "overlap"),
-], ids=["open", "millimetres", "tiny", "overlapping"])
+                                       trimesh.creation.box((1, 1, 3))]), "m",
+     "2 separate bodies that overlap; a target must be one body"),
+    # two boxes 5 m apart: accepted before, its centre of mass in the gap and L_c 1.158 m
+    # where the true distance is 1.5 m (issue 54)
+    (lambda: trimesh.util.concatenate([
+        trimesh.creation.box((1, 1, 1)),
+        trimesh.creation.box((1, 1, 1), transform=trimesh.transformations.translation_matrix(
+            (5.0, 0.0, 0.0)))]), "m", "2 separate bodies apart; a target must be one body"),
+], ids=["open", "millimetres", "tiny", "overlapping", "apart"])
 def test_bad_meshes_are_refused_naming_file_and_defect(tmp_path, make, units, defect):
     with pytest.raises(TargetError, match=defect) as err:
         _mesh_config(tmp_path, make(), units=units)
     assert "part.stl" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_an_empty_file_is_refused_in_the_tool_s_words(tmp_path):
+    """An empty mesh file gets the tool's message, not numpy's ("need at least one array
+    to concatenate", issue 54)."""
+    path = tmp_path / "part.stl"
+    path.write_bytes(b"")
+    with pytest.raises(TargetError, match=r"part\.stl: the file is empty \(0 bytes\)"):
+        target_shape(TargetConfig(mesh=str(path), mass=100.0))
 
 
 def test_millimetres_accepted_with_units(tmp_path):

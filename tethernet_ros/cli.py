@@ -17,7 +17,7 @@ from .errors import UserError
 
 #: command modules, in the order ``tethernet --help`` lists them
 COMMANDS = ("capture", "validate", "sensitivity", "figures", "replay", "optimize", "cost",
-            "study")
+            "study", "target")
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:

@@ -90,6 +90,9 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
     if path.suffix.lower() not in FORMATS:
         raise MeshError(f"{name}: format {path.suffix or '(none)'} not read; must be one of "
                         f"{', '.join(FORMATS)}")
+    if path.is_file() and path.stat().st_size == 0:
+        raise MeshError(f"{name}: the file is empty (0 bytes); a target must be a closed "
+                        "triangle mesh")
     try:
         raw_v, raw_f = read_arrays(path)
     except Exception as exc:          # trimesh raises many kinds for unreadable files
@@ -138,9 +141,13 @@ def load_mesh(path: Path, units: str = "m") -> tuple[np.ndarray, np.ndarray, lis
     if signed_volume(vertices, faces) < 0.0:
         faces = np.ascontiguousarray(faces[:, ::-1])
         repairs.append("turned inverted normals outward")
-    if _parts_overlap(mesh):
-        raise MeshError(f"{name}: separate bodies that overlap; a target must be one body "
-                        "or bodies apart (union them first)")
+    bodies = _bodies(mesh)
+    if len(bodies) > 1:
+        how = "that overlap" if _boxes_overlap(mesh, bodies) else "apart"
+        raise MeshError(f"{name}: {len(bodies)} separate bodies {how}; a target must be one "
+                        "body (union them first, or give each its own file): the distance "
+                        "query is exact only near one body, and a rigid target of parts "
+                        "apart would need what holds them together")
     return vertices, faces, repairs
 
 
@@ -150,18 +157,19 @@ def _boundary_edges(mesh) -> int:
     return int(len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)))
 
 
-def _parts_overlap(mesh) -> bool:
-    """Whether two of the mesh's connected bodies (by shared edges) have overlapping
-    boxes."""
+def _bodies(mesh) -> list:
+    """The mesh's connected bodies (faces joined by shared edges), each an index array."""
     import trimesh
 
-    parts = trimesh.graph.connected_components(mesh.face_adjacency, min_len=1,
-                                               nodes=np.arange(len(mesh.faces)))
-    if len(parts) < 2:
-        return False
+    return trimesh.graph.connected_components(mesh.face_adjacency, min_len=1,
+                                              nodes=np.arange(len(mesh.faces)))
+
+
+def _boxes_overlap(mesh, bodies) -> bool:
+    """Whether two of the bodies have overlapping boxes."""
     v = np.asarray(mesh.vertices)
     boxes = []
-    for p in parts:
+    for p in bodies:
         pts = v[np.asarray(mesh.faces)[p].reshape(-1)]
         boxes.append((pts.min(axis=0), pts.max(axis=0)))
     for i in range(len(boxes)):
