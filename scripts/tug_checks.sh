@@ -18,6 +18,8 @@ declare -A DESIGN SAMPLES CONFIG
 cell() { DESIGN[$1]=$2; SAMPLES[$1]=$3; CONFIG[$1]=$4; }
 cell mass-min__ref           $M  100 "{}"
 cell mass-min__dt0.5ms       $M  100 "{implicit_dt: 0.0005, tug: {ladder_levels: 0}}"
+cell mass-min__dt0.25ms      $M  50  "{implicit_dt: 0.00025, tug: {ladder_levels: 0}}"
+cell case1-chosen__dt0.5ms   $C1 100 "{implicit_dt: 0.0005, tug: {ladder_levels: 0}}"
 cell mass-min__dt2ms         $M  100 "{implicit_dt: 0.002, implicit_iterations: 8, tug: {ladder_levels: 0}}"
 cell mass-min__creep0.1      $M  100 "{tug: {creep_speed: 0.1, ladder_levels: 0}}"
 cell mass-min__creep0.4      $M  100 "{tug: {creep_speed: 0.4, ladder_levels: 0}}"
@@ -30,7 +32,8 @@ cell case2-chosen__ref       $C2 100 "{}"
 cell case2-chosen__ratchet   $C2 100 "{lock_model: ratchet, tug: {ladder_levels: 0}}"
 ORDER=(mass-min__ref case1-chosen__ref case2-chosen__ref case2-chosen__ratchet
        mass-min__dt0.5ms mass-min__dt2ms mass-min__creep0.1 mass-min__creep0.4
-       mass-min__hold5 mass-min__hold20 mass-min__explicit case1-chosen__explicit)
+       mass-min__hold5 mass-min__hold20 mass-min__explicit case1-chosen__explicit
+       mass-min__dt0.25ms case1-chosen__dt0.5ms)
 [ $# -gt 0 ] && ORDER=("$@")
 for c in "${ORDER[@]}"; do
     [ -n "${DESIGN[$c]:-}" ] || { echo "unknown cell $c" >&2; exit 2; }

@@ -175,7 +175,8 @@ def test_a_request_naming_a_target_keeps_the_configured_attitude():
 
     config = SimConfig(target=TargetConfig(attitude_deg=(90.0, 0.0, 0.0)))
     request = SimpleNamespace(set_tumble=False, set_launch=False, target="envisat",
-                              target_mass=0.0, criterion="", tow_acceleration=0.0)
+                              target_mass=0.0, target_units="", criterion="",
+                              tow_acceleration=0.0)
     got = config_with_tumble(config, request)
     assert got.target.attitude_deg == (90.0, 0.0, 0.0) and got.target.name == "envisat"
     assert got.target.mass != config.target.mass
@@ -186,3 +187,33 @@ def test_a_request_naming_a_target_keeps_the_configured_attitude():
     for field, value in (("criterion", "tug"), ("tow_acceleration", -1.0)):
         with pytest.raises(RequestError, match=f"^{field}: got"):
             config_with_tumble(config, SimpleNamespace(**{**vars(request), field: value}))
+
+
+def test_a_request_names_a_mesh_in_millimetres(tmp_path):
+    """A request carries the unit of its mesh file (``target_units``; issue 54: RunCapture
+    had none though the error said to give units 'mm'); without one the configured
+    target's unit is kept (it was read in metres); a unit for a catalogue name, or for no
+    target, is refused naming the field."""
+    from types import SimpleNamespace
+
+    import trimesh
+
+    from tethernet_ros.core.target import TargetConfig
+    from tethernet_ros.ros.conversions import RequestError, config_with_tumble
+
+    part = tmp_path / "part.stl"
+    trimesh.creation.box((2000.0, 3000.0, 1000.0)).export(part)      # a 2 x 3 x 1 m box, mm
+    request = SimpleNamespace(set_tumble=False, set_launch=False, target=str(part),
+                              target_mass=950.0, target_units="mm", criterion="",
+                              tow_acceleration=0.0)
+    got = config_with_tumble(SimConfig(), request)
+    assert got.target.units == "mm" and got.target.mesh == str(part)
+    with pytest.raises(RequestError, match=r"^target_units: .*give units 'mm'"):
+        config_with_tumble(SimConfig(), SimpleNamespace(**{**vars(request), "target_units": ""}))
+    in_mm = SimConfig(target=TargetConfig(mesh=str(part), mass=950.0, units="mm"))
+    kept = config_with_tumble(in_mm, SimpleNamespace(**{**vars(request), "target_units": ""}))
+    assert kept.target.units == "mm"
+    for fields, field in (({"target": "envisat", "target_mass": 0.0}, "target_units"),
+                          ({"target": "", "target_mass": 0.0}, "target_units")):
+        with pytest.raises(RequestError, match=f"^{field}: "):
+            config_with_tumble(SimConfig(), SimpleNamespace(**{**vars(request), **fields}))

@@ -278,6 +278,8 @@ def test_replay_good_bag(captured, reference):
     assert (f"{rep['messages']} messages ({rep['messages_read']} read, {rep['messages_skipped']} "
             "skipped") in text.stdout
     assert f"{listed[TOPICS['markers']]} skipped" in text.stdout
+    # the text names the target (issue 54: it did not)
+    assert "  target            zenit-2 (revolution)" in text.stdout
 
 
 def test_a_setup_heard_again_is_a_repeat(suite, captured):

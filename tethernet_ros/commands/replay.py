@@ -281,6 +281,16 @@ def _replay_loop(setup, actions, world, truths, sensed, decisions, launch_decisi
     return loop
 
 
+def target_text(t: dict) -> str:
+    """The recorded target in words: its name (or mesh file, units, the start of its
+    SHA-256) and kind."""
+    if t.get("mesh"):
+        sha = (t.get("mesh_sha256") or "")[:12]
+        return (f"{t.get('name') or Path(t['mesh']).name} ({t.get('kind')}: {t['mesh']}, units "
+                f"{t.get('units') or 'm'}" + (f", sha256 {sha}" if sha else "") + ")")
+    return f"{t.get('name') or 'zenit-2'} ({t.get('kind')})"
+
+
 def _fmt_result(r) -> str:
     if r is None:
         return "none"
@@ -315,6 +325,8 @@ def run(args) -> int:
         counts = [f"{t['read']} read"] if t["read"] or not t["skipped"] else []
         counts += [f"{t['skipped']} skipped"] if t["skipped"] else []
         lines.append(f"    {name:<{width}}  {', '.join(counts)}")
+    if report.get("target"):
+        lines.append(f"  target            {target_text(report['target'])}")
     if "first_time" in report:
         lines.append(f"  states            {report['states']} (t = {report['first_time']:.3f} .. "
                      f"{report['last_time']:.3f} s)")

@@ -390,10 +390,11 @@ class RosSuite:
     def request(self, design: Design, seed: int | None, noise_model: NoiseModel | None = None,
                 record_bag: bool = True, bag_name: str | None = None, tumble=None,
                 target: str = "", target_mass: float = 0.0, launch=None,
-                criterion: str = "", tow_acceleration: float = 0.0):
+                criterion: str = "", tow_acceleration: float = 0.0, target_units: str = ""):
         """A RunCapture request; ``tumble`` (a TumbleConfig): the target's spin for this
         episode (None: the suite's configuration's); ``target``: a catalogue name or mesh
-        file ('' the suite's configuration's) and its mass (kg; 0: the catalogue's);
+        file ('' the suite's configuration's), its mass (kg; 0: the catalogue's) and a mesh
+        file's length unit (``target_units``; '': the configured target's, else m);
         ``launch`` (a LaunchConfig): its launch policy, max_wait and max_tilt_deg (None: the
         suite's configuration's; its other settings must be the configuration's, which the
         request cannot carry); ``criterion`` ('source' or 'held'; '' the configuration's) and
@@ -411,6 +412,7 @@ class RosSuite:
             req.set_tumble = True
             req.tumble = conv.tumble_msg(tumble)
         req.target, req.target_mass = str(target), float(target_mass)
+        req.target_units = str(target_units)
         if launch is not None:
             self._check_launch(launch)
             req.set_launch = True
@@ -507,10 +509,11 @@ class RosSuite:
                 record_bag: bool = True, bag_name: str | None = None,
                 timeout: float = 900.0, tumble=None, target: str = "",
                 target_mass: float = 0.0, launch=None, criterion: str = "",
-                tow_acceleration: float = 0.0) -> tuple[EpisodeResult, str | None]:
+                tow_acceleration: float = 0.0,
+                target_units: str = "") -> tuple[EpisodeResult, str | None]:
         resp = self.call(self.request(design, seed, noise_model, record_bag, bag_name, tumble,
                                       target, target_mass, launch, criterion,
-                                      tow_acceleration), timeout)
+                                      tow_acceleration, target_units), timeout)
         if resp.status == REJECTED:
             raise RosCaptureError(f"request refused: {resp.error}")
         if resp.status != SUCCEEDED:

@@ -137,28 +137,39 @@ def launch_from_request(request, base=None):
 
 
 def target_from_request(request, base=None):
-    """The TargetConfig a request's ``target`` and ``target_mass`` name (None: the
-    configured target); a target named anew keeps only where ``base`` (the configured
-    target) is turned, ``attitude_deg``, as the CLI's --target does; RequestError names
-    the bad field."""
+    """The TargetConfig a request's ``target``, ``target_mass`` and ``target_units`` name
+    (None: the configured target); a target named anew keeps only where ``base`` (the
+    configured target) is turned, ``attitude_deg``, as the CLI's --target does, and a mesh
+    file without a unit is read in ``base``'s when ``base`` is a mesh file (else m);
+    RequestError names the bad field."""
     from ...core.target import TargetConfig, TargetError, target_fields
 
     name = getattr(request, "target", "") or ""
     mass = float(getattr(request, "target_mass", 0.0) or 0.0)
+    units = str(getattr(request, "target_units", "") or "")
     if not name:
         if mass != 0.0:
             raise RequestError("target_mass", "given without a target; name the target too")
+        if units:
+            raise RequestError("target_units", "given without a target; name the mesh file too")
         return None
     if not (math.isfinite(mass) and mass >= 0.0):
         raise RequestError("target_mass", f"got {mass!r}; must be a mass > 0 kg (0: the "
                            "catalogue's)")
     try:
+        fields = target_fields(name)
+        if units and not fields["mesh"]:
+            raise RequestError("target_units", f"got {units!r} for the catalogue target "
+                               f"{name!r}; a unit is given for a mesh file only")
+        if fields["mesh"]:
+            # a mesh file is read in the request's unit, else the configured target's
+            fields["units"] = units or (base.units if base is not None and base.mesh else "m")
         turned = {} if base is None else {"attitude_deg": base.attitude_deg}
-        return TargetConfig(**target_fields(name), **turned,
-                            **({"mass": mass} if mass > 0 else {}))
+        return TargetConfig(**fields, **turned, **({"mass": mass} if mass > 0 else {}))
     except TargetError as exc:
         text = str(exc)
-        field = "target_mass" if "'mass'" in text else "target"
+        field = ("target_mass" if "'mass'" in text else
+                 "target_units" if "'units'" in text or "give units" in text else "target")
         raise RequestError(field, text) from None
 
 
