@@ -147,8 +147,8 @@ def plot(data: dict, png: Path) -> None:
     for h in data["holding"]:
         xs = [r["pull"] for r in h["shares"]]
         ys = [100 * r["share"] for r in h["shares"]]
-        err = [[100 * (r["share"] - r["lo"]) for r in h["shares"]],
-               [100 * (r["hi"] - r["share"]) for r in h["shares"]]]
+        err = [[max(0.0, 100 * (r["share"] - r["lo"])) for r in h["shares"]],
+               [max(0.0, 100 * (r["hi"] - r["share"])) for r in h["shares"]]]
         ax.errorbar(xs, ys, yerr=err, marker="o", capsize=3, label=h["design"])
     ax.set_xscale("log")
     ax.set_xlabel("pull (N)")

@@ -133,3 +133,30 @@ def test_target_show_tells_what_the_tool_made_of_a_target(tmp_path):
     out = tethernet("target", "show", str(tmp_path / "two.stl"), "--target-mass", "80")
     assert out.returncode == 2 and "2 separate bodies apart" in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--criterion", "held", "--tow-acceleration", "-0.05"],
+     "--tow-acceleration: tug field 'tow_acceleration': got -0.05; must be an acceleration "
+     "in [1e-4, 10] m/s^2"),
+    (["--criterion", "held", "--tow-acceleration", "nan"], "got nan; must be an acceleration"),
+    (["--criterion", "held", "--tow-acceleration", "0"], "got 0.0; must be an acceleration"),
+    (["--criterion", "held", "--tow-acceleration", "6"],
+     "tug field 'tow_acceleration': got 6 m/s^2, a pull of 4.98e+04 N on the 8300 kg target; "
+     "must be at most 4.996 m/s^2"),
+    (["--criterion", "tug"], "argument --criterion: invalid choice: 'tug'"),
+    (["--config", "CRIT"], "config field 'criterion': got 'tug'; must be one of 'source', 'held'"),
+    (["--config", "PULL"], "tug field 'tow_acceleration': got 6 m/s^2"),
+], ids=["negative", "nan", "zero", "above-breaking-load", "unknown-flag", "unknown-file",
+        "above-breaking-load-file"])
+def test_bad_criterion_and_acceleration_are_refused_in_one_line(tmp_path, args, words):
+    """Issue 53 point 6 through the CLI and a config file: each refused with status 2 in
+    one line naming the field and its range, no traceback."""
+    (tmp_path / "crit.yaml").write_text("criterion: tug\n")
+    (tmp_path / "pull.yaml").write_text("criterion: held\ntug: {tow_acceleration: 6.0}\n")
+    args = [str(tmp_path / "crit.yaml") if a == "CRIT" else
+            str(tmp_path / "pull.yaml") if a == "PULL" else a for a in args]
+    out = tethernet("capture", "--design", "mass-min", *args)
+    assert out.returncode == 2 and words in out.stderr, out.stderr
+    assert "Traceback" not in out.stderr
+    assert len([ln for ln in out.stderr.splitlines() if "error" in ln]) == 1
