@@ -64,6 +64,15 @@ def add_noise_arguments(p: argparse.ArgumentParser) -> None:
         g.add_argument(flag, type=float, default=None, metavar="SIGMA", help=what)
 
 
+def add_target_file_arguments(g) -> None:
+    """--target-mass and --target-units: what a target's name or file leaves open."""
+    g.add_argument("--target-mass", type=float, default=None, metavar="KG",
+                   help="the target's mass (kg; default the catalogue's, 8300 for zenit-2; "
+                        "a mesh file needs one)")
+    g.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
+                   help="the length unit of a --target mesh file (default m)")
+
+
 def add_config_argument(p: argparse.ArgumentParser) -> None:
     """--config and the scenario's options (tumble, sensing, closing policy), which set
     the nested SimConfig fields over --config and a design file's ``tumble:``."""
@@ -77,10 +86,7 @@ def add_config_argument(p: argparse.ArgumentParser) -> None:
                    help="the target: zenit-2 (the source's stage, default), a catalogue name "
                         "(docs/targets.md) or a mesh "
                         "file (.stl, .obj, .ply, .glb, .gltf, .off; give --target-mass)")
-    g.add_argument("--target-mass", type=float, default=None, metavar="KG",
-                   help="the target's mass (kg; default the catalogue's, 8300 for zenit-2)")
-    g.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
-                   help="the length unit of a --target mesh file (default m)")
+    add_target_file_arguments(g)
     g.add_argument("--target-attitude", default=None, metavar="RX,RY,RZ",
                    help="the target's initial attitude, which face the chaser sees: turns "
                         "(deg) about the world x, then y, then z axis (default none)")

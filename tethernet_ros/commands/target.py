@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import print_json, target_fields
+from .common import add_target_file_arguments, print_json, target_fields
 
 NAME = "target"
 HELP = ("show what the tool made of a target (a catalogue name or a mesh file): mass, "
@@ -21,10 +21,7 @@ def add_arguments(p):
                    help="a catalogue name (zenit-2, envisat, h-iia-upper-stage, proba-1, "
                         "zenit-2-nozzle, zenit-2-cylinder) or a mesh file (.stl, .obj, .ply, "
                         ".glb, .gltf, .off; give --target-mass)")
-    p.add_argument("--target-mass", type=float, default=None, metavar="KG",
-                   help="its mass (kg; a mesh file needs one, a catalogue name has its own)")
-    p.add_argument("--target-units", default=None, metavar="m|cm|mm|in|ft",
-                   help="the length unit of a mesh file (default m)")
+    add_target_file_arguments(p)
     p.add_argument("--png", default=None, metavar="FILE.png", help="draw it into FILE.png")
     p.add_argument("--json", action="store_true", help="print one JSON object")
 
