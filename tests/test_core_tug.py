@@ -305,3 +305,21 @@ def test_exploration_under_the_tug_leaves_the_early_call_off():
     assert (fast.implicit_dt, fast.implicit_iterations, fast.early_call) == (2e-3, 8, False)
     assert "early_call" not in fidelity_text("exploration", held)
     assert at_fidelity(SimConfig(), "exploration").early_call
+
+
+def test_the_cinch_keeps_pulling_every_pair(mass_min):
+    """lock_model 'cinch' (a winch that keeps reeling the drawstring in): the closing force
+    acts on every pair always, so the neck ends tighter than under the source's latch, which
+    stops pulling a pair below the lock distance; no rigid limit is added (the ratchet's),
+    so every pair still locks."""
+    def gaps(lock):
+        sc = scenario_for(mass_min, None, SimConfig(settle_time=5.0, lock_model=lock))
+        sim = CaptureSimulation(sc)
+        res = run_simulation(sim, record_trace=False)
+        x, p = sc.bodies.x, sc.drawstring.pairs
+        return res, np.sqrt(((x[p[:, 1]] - x[p[:, 0]]) ** 2).sum(axis=1))
+    latch, g_latch = gaps("latch")
+    cinch, g_cinch = gaps("cinch")
+    assert cinch.locked_pairs == 12 and latch.locked_pairs == 12
+    assert g_cinch.mean() < 0.8 * g_latch.mean(), (g_cinch.mean(), g_latch.mean())
+    assert g_latch.min() > 0.5 * SimConfig().lock_distance

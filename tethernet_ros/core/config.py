@@ -73,7 +73,7 @@ _CHOICES = {
     "thread_damping": ("element", "stiffness"),
     "contact_model": ("frequency", "hertz"),
     "contact_radius": ("fixed", "density"),
-    "lock_model": ("ratchet", "latch"),
+    "lock_model": ("ratchet", "latch", "cinch"),
     "drawstring_corners": ("net", "corner_mass"),
     "integrator": ("explicit", "implicit"),
     "implicit_impacts": ("rebound", "inelastic"),
@@ -132,7 +132,9 @@ class SimConfig:
     closing_force_factor: F_c = factor m_c L_n (text 2/25, code 2/1^2 for the perimeter);
     lock_model: "ratchet" (text as implemented: the force acts on every pair, a locked pair
     is held by a one-sided joint that only shortens) or "latch" (code: the force acts only
-    while a pair is >= lock_distance apart; a lock is a latch that holds nothing);
+    while a pair is >= lock_distance apart; a lock is a latch that holds nothing) or
+    "cinch" (neither's: the force acts on every pair always, as a winch that keeps reeling
+    the drawstring in, and a lock only counts the pair; docs/studies/tug-checks.md);
     drawstring_corners: the ring's corners are the net's corner nodes ("net", text) or the
     corner masses ("corner_mass", code); tether_radius: main tether thread radius (m; 0:
     r_n as in the text; code 2 mm).

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .data import E_STEP
-from .model import LOCK_RATCHET
+from .model import LOCK_LATCH
 
 #: Jacobi passes of the lock projection per step
 LOCK_PASSES = 4
@@ -23,8 +23,8 @@ LOCK_PASSES = 4
 
 @njit(cache=True, inline='always', error_model='numpy')
 def closing_forces(model, data, scr, l):
-    """Lane l: add F_c along the drawstring pairs it pulls (every pair; under the latch
-    model only those at least ``lock_dist`` apart) to scr.F (a ring body in two pairs gets
+    """Lane l: add F_c along the drawstring pairs it pulls (every pair under the ratchet
+    and the cinch; under the latch model only those at least ``lock_dist`` apart) to scr.F (a ring body in two pairs gets
     both pulls summed first, commutatively, so mirror symmetry is kept)."""
     x = data.bodies.x
     F = scr.F
@@ -41,7 +41,7 @@ def closing_forces(model, data, scr, l):
         dy = x[b, 1, l] - x[a, 1, l]
         dz = x[b, 2, l] - x[a, 2, l]
         d = np.sqrt(dx * dx + dy * dy + dz * dz)
-        if d > 1e-12 and (prm.lock_model == LOCK_RATCHET or d >= prm.lock_dist):
+        if d > 1e-12 and (prm.lock_model != LOCK_LATCH or d >= prm.lock_dist):
             s_ = close_force / d
             pair_f[p, 0, l] = s_ * dx
             pair_f[p, 1, l] = s_ * dy

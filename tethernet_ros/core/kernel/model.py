@@ -32,10 +32,10 @@ Params = namedtuple("Params", "dt close_force lock_dist mu mu_static "
 #: Modelling choices held as small integers in Params (the index of the name).
 CONTACT_MODELS = ("frequency", "hertz")
 THREAD_DAMPING_MODELS = ("element", "stiffness")
-LOCK_MODELS = ("ratchet", "latch")
+LOCK_MODELS = ("ratchet", "latch", "cinch")
 CONTACT_FREQUENCY, CONTACT_HERTZ = 0, 1
 DAMPING_ELEMENT, DAMPING_STIFFNESS = 0, 1
-LOCK_RATCHET, LOCK_LATCH = 0, 1
+LOCK_RATCHET, LOCK_LATCH, LOCK_CINCH = 0, 1, 2
 
 #: slots of LinkModel.slots: the (non-grid) threads acting on a body
 N_SLOTS = 2
