@@ -24,8 +24,9 @@ LOCK_PASSES = 4
 @njit(cache=True, inline='always', error_model='numpy')
 def closing_forces(model, data, scr, l):
     """Lane l: add F_c along the drawstring pairs it pulls (every pair under the ratchet
-    and the cinch; under the latch model only those at least ``lock_dist`` apart) to scr.F (a ring body in two pairs gets
-    both pulls summed first, commutatively, so mirror symmetry is kept)."""
+    and the cinch; under the latch model only those at least ``lock_dist`` apart) to
+    scr.F (a ring body in two pairs gets both pulls summed first, commutatively, so mirror
+    symmetry is kept)."""
     x = data.bodies.x
     F = scr.F
     pair_f = scr.pair_f
