@@ -28,6 +28,8 @@ cell mass-min__hold40        $M  100 "{tug: {hold_time: 40.0, ladder_levels: 0}}
 cell mass-min__hold80        $M  100 "{tug: {hold_time: 80.0, ladder_levels: 0}}"
 cell mass-min__cinch         $M  100 "{lock_model: cinch}"
 cell mass-min__cinch-hold40  $M  100 "{lock_model: cinch, tug: {hold_time: 40.0, ladder_levels: 0}}"
+cell case1-chosen__cinch     $C1 100 "{lock_model: cinch}"
+cell case2-chosen__cinch     $C2 100 "{lock_model: cinch}"
 cell mass-min__hold20        $M  100 "{tug: {hold_time: 20.0, ladder_levels: 0}}"
 cell mass-min__explicit      $M  20  "{integrator: explicit, tug: {ladder_levels: 0}}"
 cell case1-chosen__ref       $C1 100 "{}"
@@ -38,7 +40,7 @@ ORDER=(mass-min__ref case1-chosen__ref case2-chosen__ref case2-chosen__ratchet
        mass-min__dt0.5ms mass-min__dt2ms mass-min__creep0.1 mass-min__creep0.4
        mass-min__hold5 mass-min__hold20 mass-min__explicit case1-chosen__explicit
        mass-min__hold40 mass-min__hold80 mass-min__dt0.25ms case1-chosen__dt0.5ms
-       mass-min__cinch mass-min__cinch-hold40)
+       mass-min__cinch mass-min__cinch-hold40 case1-chosen__cinch case2-chosen__cinch)
 [ $# -gt 0 ] && ORDER=("$@")
 for c in "${ORDER[@]}"; do
     [ -n "${DESIGN[$c]:-}" ] || { echo "unknown cell $c" >&2; exit 2; }
