@@ -23,9 +23,8 @@ import math
 import sys
 from pathlib import Path
 
-from tethernet_ros.core.episode import source_verdict
 from tethernet_ros.studies.files import samples_by_seed
-from tethernet_ros.studies.tug import holding_shares, share
+from tethernet_ros.studies.tug import holding_shares, share, tested_successes
 
 #: thresholds of the share slid off at which the reference cells are judged again
 SLID_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7)
@@ -36,7 +35,7 @@ SLID_REASON = "the net slid off"
 
 def tested(samples: dict) -> dict:
     """seed -> tug verdict of the samples the source called a success and the tug tested."""
-    return {seed: s.tug for seed, s in samples.items() if s.tug and source_verdict(s)[0]}
+    return {s.seed: s.tug for s in tested_successes(samples.values())}
 
 
 def paired(ref: dict, other: dict) -> dict:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ..core.shapes import target_shape
 from ..core.episode import run_episode
+from ..core.metrics import criterion_of
 from ..core.tug import outcome_text
 from .common import (add_config_argument, add_design_argument, add_fidelity_argument,
                      add_noise_arguments, add_ros_arguments, check_ros_arguments,
@@ -93,8 +94,7 @@ def fmt(v, unit="", digits=3):
 
 def summary_text(label, seed_label, r, wall, via, bag_path, png) -> str:
     verdict = "SUCCESS" if r.success else "FAILURE"
-    criterion = getattr(r, "criterion", "source") or "source"
-    judged = ("the source's criterion" if criterion == "source"
+    judged = ("the source's criterion" if criterion_of(r) == "source"
               else "criterion held: the source's and the tug at the required pull")
     lines = [
         f"capture of {label} ({seed_label}, via {via}): {verdict}  (by {judged})",

@@ -47,6 +47,8 @@ def add_arguments(p):
 
 
 def _result_dict(r) -> dict | None:
+    from ..core import metrics
+
     if r is None:
         return None
     ct = r.closing_time
@@ -54,7 +56,7 @@ def _result_dict(r) -> dict | None:
             "locked_pairs": int(r.locked_pairs),
             "closing_time": None if ct is None or ct != ct or ct < 0 else float(ct),
             "completion_time": float(r.completion_time), "failure_reason": r.failure_reason,
-            "criterion": str(getattr(r, "criterion", "") or "source")}
+            "criterion": metrics.criterion_of(r)}
 
 
 def replay(path) -> dict:

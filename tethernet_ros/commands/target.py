@@ -30,6 +30,7 @@ def target_report(config) -> dict:
     """The properties of a target configuration (``core.target.TargetConfig``), SI units."""
     import numpy as np
 
+    from ..core.config import SimConfig
     from ..core.shapes import target_shape
     from ..core.shapes.catalogue import design_bounds_of
     from ..core.tug import TugConfig, breaking_load, required_pull
@@ -37,7 +38,8 @@ def target_report(config) -> dict:
     shape = target_shape(config)
     axes = np.asarray(getattr(shape, "axes", np.eye(3)), dtype=float)
     tug = TugConfig()
-    limit = breaking_load(tug, 0.002)
+    radius = SimConfig().tether_radius          # the default main tether's
+    limit = breaking_load(tug, radius)
     return {
         "target": config.name or config.mesh, "kind": shape.kind, "mass": float(shape.mass),
         "volume": float(shape.volume), "area": float(shape.area),
@@ -49,7 +51,8 @@ def target_report(config) -> dict:
         "design_bounds": {k: [float(lo), float(hi)]
                           for k, (lo, hi) in design_bounds_of(config).items()},
         "repairs": list(getattr(shape, "repairs", ()) or []),
-        "required_pull": required_pull(tug, float(shape.mass), 0.002),
+        "required_pull": required_pull(tug, float(shape.mass), radius),
+        "tether_radius": radius,
         "tow_acceleration": tug.tow_acceleration,
         "largest_tow_acceleration": limit / float(shape.mass),
     }
@@ -75,7 +78,8 @@ def report_text(r: dict) -> str:
              "  repairs            " + ("; ".join(r["repairs"]) or "none"),
              f"  required pull      {r['required_pull']:.4g} N at {r['tow_acceleration']:g} "
              f"m/s^2 (the tug test, docs/model.md §17; at most "
-             f"{r['largest_tow_acceleration']:.4g} m/s^2 on the 2 mm tether)"]
+             f"{r['largest_tow_acceleration']:.4g} m/s^2 on the default "
+             f"{r['tether_radius'] * 1e3:g} mm tether)"]
     return "\n".join(lines)
 
 

@@ -15,7 +15,8 @@ import numpy as np
 from . import kernel as kn
 from .config import SimConfig
 from .design import Design
-from .metrics import NOT_HELD, CQITerms, capture_quality_index, capture_verdict, clear_success
+from .metrics import (NOT_HELD, CQITerms, capture_quality_index, capture_verdict, clear_success,
+                      criterion_of)
 from .noise import NoiseSample
 from .scenario import (Actions, Scenario, World, actions_for, advance_kernel, build_scenario,
                        world_for)
@@ -434,7 +435,7 @@ def source_verdict(r) -> tuple[bool, str]:
     Under criterion 'held' the tug runs on the source's successes only, so a result whose
     tug was tested was the source's success; any other is judged as the source judged it."""
     reason = getattr(r, "failure_reason", "")
-    if (getattr(r, "criterion", "") or "source") == "source":
+    if criterion_of(r) == "source":
         return bool(r.success), reason
     tested = getattr(r, "tug_tested", None)
     if tested is None:

@@ -44,12 +44,18 @@ class Threads:
         meshes = cfg.grid_nodes - 1
         area = math.pi * (design.r_n * design.r_n)
         l0 = design.L_n / meshes
-        r_tether = cfg.tether_radius if cfg.tether_radius > 0 else design.r_n
+        r_tether = main_tether_radius(design, cfg)
         return cls(mesh=l0, lin_density=cfg.density * area, EA=cfg.young_modulus * area,
                    stowed_mesh=cfg.stowed_fraction * design.L_n / meshes,
                    corner_length=cfg.corner_thread_meshes * l0, tether_radius=r_tether,
                    tether_lin_density=cfg.density * math.pi * (r_tether * r_tether),
                    tether_EA=cfg.young_modulus * math.pi * (r_tether * r_tether))
+
+
+def main_tether_radius(design: Design, cfg: SimConfig) -> float:
+    """The main tether's thread radius (m): ``cfg.tether_radius``, or the net's r_n when it
+    is 0 (the text's choice)."""
+    return cfg.tether_radius if cfg.tether_radius > 0 else design.r_n
 
 
 def stowed_state(lay: BodyLayout, th: Threads, corner_velocities: np.ndarray, cfg: SimConfig):

@@ -140,6 +140,13 @@ CONTROLLER_TIMEOUT = "controller did not answer"
 NOT_HELD = "not held"
 
 
+def criterion_of(r) -> str:
+    """The criterion that judged a result (an EpisodeResult, a SampleResult or an
+    EpisodeResult message): 'source' when it carries none (a record or bag from before it
+    was carried, or an empty message field)."""
+    return str(getattr(r, "criterion", "") or "source")
+
+
 def failure_category(reason: str, settled_cqi: float | None = None,
                      locked_pairs: int | None = None, closing_time: float | None = None,
                      max_cqi: float = 2.0, min_locked_pairs: int = 10) -> str:

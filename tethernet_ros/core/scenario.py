@@ -23,8 +23,8 @@ from .tumble import TumbleConfig, axis_quaternion, quat_multiply, spin_of
 from .config import SimConfig
 from .design import Design
 from .layout import BodyLayout, drawstring_ring, grid_thread_pairs
-from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses, other_threads,
-                     stowed_state, thread_damping)
+from .lumped import (Threads, contact_spheres, kernel_params, lumped_masses,
+                     main_tether_radius, other_threads, stowed_state, thread_damping)
 from .noise import NoiseSample, check_orientation_axis, corner_velocities
 from .tug import pull_ladder, required_pull, tug_params
 from .shapes import Shape, target_shape
@@ -110,8 +110,8 @@ def nominal_pull(design: Design, config: SimConfig) -> float:
     the test is off."""
     if not config.tug.enabled:
         return 0.0
-    radius = config.tether_radius if config.tether_radius > 0 else design.r_n
-    return required_pull(config.tug, target_shape(config.target).mass, radius)
+    return required_pull(config.tug, target_shape(config.target).mass,
+                         main_tether_radius(design, config))
 
 
 def launch_attitude(design: Design, sample: NoiseSample | None, config: SimConfig):

@@ -340,13 +340,13 @@ class TugTest:
         return True
 
     def _judge_level(self) -> bool:
+        """The end of a level: record its verdict; climb on (True) or stop (False)."""
         why, _ = self._verdict()
         self._record_level(not why, why)
-        return self._next_level() if not why else self._stop_ladder()
-
-    def _stop_ladder(self) -> bool:
-        self.level = None
-        return False
+        if why:
+            self.level = None
+            return False
+        return self._next_level()
 
     def _record_level(self, held: bool, reason: str) -> None:
         sim = self.sim

@@ -135,7 +135,7 @@ def sample_result(task: EpisodeTask, episode, cpu_time: float = 0.0, trace: dict
         cpu_time=cpu_time, attempts=task.attempt + 1, trace=trace,
         launch_time=float(getattr(episode, "launch_time", 0.0)),
         tug=getattr(episode, "tug", None),
-        criterion=str(getattr(episode, "criterion", "source") or "source"))
+        criterion=metrics.criterion_of(episode))
 
 
 def worker_error_result(task: EpisodeTask, error: str) -> SampleResult:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from ..core.episode import source_verdict
+from ..core.metrics import criterion_of
 from .names import TOPICS
 
 
@@ -21,10 +22,8 @@ def compare_results(a, b) -> str:
     def ct(r):
         v = r.closing_time
         return math.nan if v is None or (isinstance(v, float) and not math.isnan(v) and v < 0) else v
-    crit_a = getattr(a, "criterion", "") or "source"
-    crit_b = getattr(b, "criterion", "") or "source"
     (sa, ra), (sb, rb) = ((a.success, a.failure_reason), (b.success, b.failure_reason)) \
-        if crit_a == crit_b else (source_verdict(a), source_verdict(b))
+        if criterion_of(a) == criterion_of(b) else (source_verdict(a), source_verdict(b))
     for name, va, vb in (("success", sa, sb),
                          ("settled_cqi", a.settled_cqi, b.settled_cqi),
                          ("locked_pairs", a.locked_pairs, b.locked_pairs),

@@ -8,10 +8,10 @@ from collections import Counter
 from dataclasses import asdict, dataclass
 
 from ..core.episode import source_verdict
-from ..core.metrics import wilson_interval
+from ..core.metrics import criterion_of, wilson_interval
 
 __all__ = ["Confusion", "confusion", "confusion_table", "criterion_text", "holding_shares",
-           "share"]
+           "share", "tested_successes"]
 
 
 @dataclass
@@ -103,6 +103,12 @@ def confusion_table(rows: list[Confusion]) -> str:
     return "\n".join(lines)
 
 
+def tested_successes(samples) -> list:
+    """The samples the source's criterion calls a success and the tug tested (those a
+    share held is taken over)."""
+    return [s for s in samples if s.tug and source_verdict(s)[0]]
+
+
 def share(k: int, n: int) -> dict:
     """k of n as a share with its Wilson 95 % interval (NaN when n is 0)."""
     lo, hi = wilson_interval(k, n) if n else (math.nan, math.nan)
@@ -129,13 +135,12 @@ def criterion_text(label: str, samples) -> str:
     criterion and by 'held' (Wilson 95 %), and the share of the source's successes that
     hold each pull of the ladder; '' for a run judged by the source's criterion."""
     samples = list(samples)
-    if not samples or all((getattr(s, "criterion", "source") or "source") == "source"
-                          for s in samples):
+    if not samples or all(criterion_of(s) == "source" for s in samples):
         return ""
     n = len(samples)
     src = share(sum(1 for s in samples if source_verdict(s)[0]), n)
     held = share(sum(1 for s in samples if s.success), n)
-    tugs = [s.tug for s in samples if s.tug and source_verdict(s)[0]]
+    tugs = [s.tug for s in tested_successes(samples)]
 
     def pct(d):
         return f"{100 * d['share']:.1f} % [{100 * d['lo']:.1f}, {100 * d['hi']:.1f}]"

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ...core.design import Design, DesignError
-from .errors import RequestError
+from .errors import RequestError, detail
 
 
 #: core design field -> Design.msg field
@@ -36,5 +36,4 @@ def design_from_msg(m, prefix: str = "design") -> Design:
         core = exc.field.split("[")[0]
         name = DESIGN_FIELDS.get(core, core)
         index = exc.field[len(core):]
-        detail = str(exc).split(": ", 1)[1] if ": " in str(exc) else str(exc)
-        raise RequestError(f"{prefix}.{name}{index}", f"({exc.field}) {detail}") from None
+        raise RequestError(f"{prefix}.{name}{index}", f"({exc.field}) {detail(exc)}") from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 import math
 
 from ...core.episode import EpisodeResult
+from ...core.metrics import criterion_of
 from .stamps import set_time
 
 
@@ -69,7 +70,7 @@ def episode_result_msg(result: EpisodeResult, episode_id: str, nominal: bool,
     pen = getattr(result, "max_penetration", math.nan)
     m.max_penetration = math.nan if pen is None else float(pen)
     m.launch_time = float(getattr(result, "launch_time", 0.0))
-    m.criterion = str(getattr(result, "criterion", "source") or "source")
+    m.criterion = criterion_of(result)
     tug = getattr(result, "tug", None)
     m.tug_tested = tug is not None
     if tug is not None:
@@ -127,4 +128,4 @@ def episode_result_from_msg(m) -> EpisodeResult:
         seed=None if m.nominal else int(m.seed), steps=int(getattr(m, "steps", -1)),
         max_penetration=float(getattr(m, "max_penetration", math.nan)),
         launch_time=float(getattr(m, "launch_time", math.nan)), tug=tug_from_msg(m),
-        criterion=str(getattr(m, "criterion", "") or "source"))
+        criterion=criterion_of(m))

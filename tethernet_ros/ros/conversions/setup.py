@@ -12,7 +12,7 @@ from ...core.tumble import TumbleConfig, TumbleError
 from ..state import Setup
 from .design import design_from_msg, design_msg
 from .noise import noise_settings_from_msg, noise_settings_msg
-from .errors import RequestError
+from .errors import RequestError, detail
 from .stamps import set_time
 
 
@@ -42,10 +42,10 @@ def tumble_from_msg(m, prefix: str = "tumble") -> TumbleConfig:
         field = text.split("'")[1] if text.startswith("tumble field '") else "tumble"
         if field == "axis" and not m.axis:
             field = "axis_vector"
-        detail = text.split(": ", 1)[1] if ": " in text else text
+        said = detail(exc)
         if field == "axis":
-            detail = detail.replace("or a vector [x, y, z]", "or '' with axis_vector")
-        raise RequestError(f"{prefix}.{field}", detail) from None
+            said = said.replace("or a vector [x, y, z]", "or '' with axis_vector")
+        raise RequestError(f"{prefix}.{field}", said) from None
 
 
 def config_with_tumble(config: SimConfig, request) -> SimConfig:
@@ -86,9 +86,7 @@ def criterion_from_request(request, config: SimConfig) -> SimConfig:
         try:
             config = config.replace(tug=replace(config.tug, tow_acceleration=accel))
         except TugError as exc:
-            text = str(exc)
-            raise RequestError("tow_acceleration",
-                               text.split(": ", 1)[1] if ": " in text else text) from None
+            raise RequestError("tow_acceleration", detail(exc)) from None
     return config
 
 
@@ -103,7 +101,7 @@ def check_pull(design: Design, config: SimConfig) -> None:
     except TugError as exc:
         text = str(exc)
         field = "tow_acceleration" if "'tow_acceleration'" in text else "sim_config tug.peak_tension"
-        raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
+        raise RequestError(field, detail(exc)) from None
 
 
 #: the LaunchConfig fields a RunCapture request or Capture goal carries (with
@@ -133,7 +131,7 @@ def launch_from_request(request, base=None):
         text = str(exc)
         field = next((req for name, req in LAUNCH_REQUEST_FIELDS.items()
                       if f"'{name}'" in text), "launch_policy")
-        raise RequestError(field, text.split(": ", 1)[1] if ": " in text else text) from None
+        raise RequestError(field, detail(exc)) from None
 
 
 def target_from_request(request, base=None):
